@@ -1,0 +1,46 @@
+"""The one error hierarchy of mocapkit.
+
+Every error the library raises on purpose derives from :class:`MocapError`; the CLI turns it into a
+one-line message and exit code 2.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class MocapError(Exception):
+    """Base class of every error mocapkit raises on purpose."""
+
+
+class MocapFormatError(MocapError):
+    """A file (or stream) is malformed.
+
+    Parameters
+    ----------
+    path
+        The file, or a label such as ``"<stdin>"``.
+    line
+        1-based line number of the offending line, or ``None`` when the problem is the whole file.
+    problem
+        What is wrong and, where useful, what was expected.
+    """
+
+    def __init__(self, path: str | Path, line: int | None, problem: str):
+        self.path = str(path)
+        self.line = line
+        self.problem = problem
+        where = self.path if line is None else f"{self.path}:{line}"
+        super().__init__(f"{where}: {problem}")
+
+
+class InvalidSignalError(MocapError):
+    """Arrays handed to the library violate the signal model (shapes, NaN, time order...)."""
+
+
+class InvalidParameterError(MocapError):
+    """A parameter is out of its domain (negative threshold, unknown method, ...)."""
+
+
+class BoundViolationError(MocapError):
+    """A guaranteed error bound was found violated on the output (a bug: please report it)."""

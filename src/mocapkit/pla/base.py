@@ -1,0 +1,252 @@
+"""Shared shape of the PLA methods: the result type, the batch entry point, the streaming encoder."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from mocapkit.errors import InvalidParameterError, InvalidSignalError
+from mocapkit.motion import Signal
+from mocapkit.pla import anglesw, cplr, fastsw, sw, swing
+from mocapkit.quat import hemisphere_continuous
+
+#: method name -> (module, keeps original samples as points, threshold meaning)
+METHODS: dict[str, tuple[object, bool, str]] = {
+    "fastsw": (fastsw, True, "max SSR per segment (Eq. 13)"),
+    "sw": (sw, True, "max SSR per segment (Eq. 5)"),
+    "cplr": (cplr, False, "max SSR per segment (regression through the anchor)"),
+    "swing": (swing, False, "max absolute error ε per sample and dimension"),
+    "anglesw": (anglesw, True, "max angle in degrees between each sample and the SLERP decode"),
+}
+POS_METHODS = frozenset(m for m, (_, pos, _) in METHODS.items() if pos)
+
+
+def check_method(method: str) -> str:
+    m = method.lower()
+    if m not in METHODS:
+        raise InvalidParameterError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    return m
+
+
+def _check_params(method: str, threshold: float, max_segment_length: int | None, kind: str) -> int:
+    if not (isinstance(threshold, (int, float)) and math.isfinite(threshold) and threshold >= 0):
+        raise InvalidParameterError(f"threshold must be a finite number >= 0, got {threshold!r}")
+    if max_segment_length is not None and int(max_segment_length) < 1:
+        raise InvalidParameterError(f"max segment length must be >= 1, got {max_segment_length!r}")
+    if method == "anglesw" and kind != "quaternion":
+        raise InvalidParameterError("method 'anglesw' works on quaternion signals only")
+    return 0 if max_segment_length is None else int(max_segment_length)
+
+
+@dataclass(frozen=True)
+class Compressed:
+    """Segment points of one signal.
+
+    ``indices`` are the sample indices at whose times the points lie; ``values`` are the points.
+    For fastSW, SW and anglesw the values are the original samples exactly as read (``q`` as given,
+    even where the algorithm worked on ``-q`` for hemisphere continuity); for CPLR and the Swing
+    Filter they are extrapolated points (not unit quaternions).
+    """
+
+    method: str
+    threshold: float
+    max_segment_length: int | None
+    kind: str
+    n_samples: int
+    indices: np.ndarray
+    times: np.ndarray
+    values: np.ndarray
+
+    @property
+    def n_points(self) -> int:
+        return int(self.indices.shape[0])
+
+    @property
+    def icr(self) -> float:
+        """Inverse compression ratio, Eq. 1 of the fastSW paper: points / samples."""
+        return self.n_points / self.n_samples
+
+    @property
+    def mean_segment_length(self) -> float:
+        """Mean number of sample intervals per segment."""
+        return (self.n_samples - 1) / max(self.n_points - 1, 1)
+
+
+def prepared_values(signal: Signal) -> np.ndarray:
+    """The values the algorithms see: quaternions made hemisphere-continuous, vectors as they are."""
+    if signal.kind == "quaternion":
+        return hemisphere_continuous(signal.values)
+    return np.ascontiguousarray(signal.values)
+
+
+def compress(
+    signal: Signal,
+    method: str = "fastsw",
+    threshold: float = 0.0,
+    max_segment_length: int | None = None,
+    *,
+    _prepared: np.ndarray | None = None,
+) -> Compressed:
+    """Compress one signal with a PLA method at a threshold on the method's own metric.
+
+    Parameters
+    ----------
+    signal
+        The signal (quaternion or vector).
+    method
+        ``fastsw``, ``sw``, ``cplr``, ``swing`` or ``anglesw`` (see :data:`METHODS`).
+    threshold
+        The method's own error bound: SSR per segment (fastSW, SW, CPLR), ε per sample and
+        dimension (Swing Filter), degrees (anglesw).
+    max_segment_length
+        Maximum number of sample intervals between consecutive segment points (``None``: unbounded).
+    """
+    method = check_method(method)
+    maxlen = _check_params(method, threshold, max_segment_length, signal.kind)
+    X = prepared_values(signal) if _prepared is None else _prepared
+    t = signal.times
+    th = float(threshold)
+    if method == "fastsw":
+        idx = fastsw.batch(t, X, th, maxlen)
+    elif method == "sw":
+        idx = sw.batch(t, X, th, maxlen)
+    elif method == "anglesw":
+        idx = anglesw.batch(t, X, math.radians(th), maxlen)
+    elif method == "cplr":
+        idx, vals = cplr.batch(t, X, th, maxlen)
+    else:
+        idx, vals = swing.batch(t, X, th, maxlen)
+    if method in POS_METHODS:
+        vals = signal.values[idx]
+    return Compressed(
+        method=method,
+        threshold=th,
+        max_segment_length=max_segment_length,
+        kind=signal.kind,
+        n_samples=len(signal),
+        indices=idx,
+        times=t[idx],
+        values=np.ascontiguousarray(vals),
+    )
+
+
+class Point(NamedTuple):
+    """A segment point emitted by a streaming encoder."""
+
+    index: int
+    time: float
+    values: tuple[float, ...]
+
+
+class Encoder:
+    """Streaming PLA encoder: ``push(t, x)`` returns the points it has decided, ``flush()`` the last.
+
+    Memory is O(1) for fastSW, CPLR and the Swing Filter; SW and anglesw buffer the samples of the
+    current segment (at most ``max_segment_length``). The points equal those of :func:`compress`
+    on the same samples, bit for bit (both run the same compiled step function).
+
+    Parameters are those of :func:`compress`, plus ``dim`` and ``kind`` of the incoming samples.
+    """
+
+    def __init__(
+        self,
+        method: str,
+        threshold: float,
+        dim: int = 4,
+        kind: str = "quaternion",
+        max_segment_length: int | None = None,
+    ):
+        self.method = check_method(method)
+        if kind == "quaternion" and dim != 4:
+            raise InvalidParameterError("a quaternion stream has dim 4")
+        self.kind = kind
+        self.dim = int(dim)
+        self._maxlen = _check_params(self.method, threshold, max_segment_length, kind)
+        self.threshold = float(threshold)
+        self._th = math.radians(self.threshold) if self.method == "anglesw" else self.threshold
+        mod = METHODS[self.method][0]
+        self._mod = mod
+        self._pos = self.method in POS_METHODS
+        self._buffered = self.method in ("sw", "anglesw")
+        if self.method == "sw":
+            cap = self._maxlen + 1 if self._maxlen else 256
+            self._fs, self._st, self._bt, self._bx = sw.new_state(self.dim, cap)
+        elif self.method == "anglesw":
+            cap = self._maxlen + 1 if self._maxlen else 256
+            self._fs, self._st, self._bt, self._bx = anglesw.new_state(cap)
+        else:
+            self._fs, self._st = mod.new_state(self.dim)
+        self._x = np.empty(self.dim)
+        self._out = np.empty(self.dim)
+        self._n = 0
+        self._last_t = -math.inf
+        self._last_raw: tuple[float, ...] | None = None
+        self._sign = 1.0
+        self._flushed = False
+
+    def _grow(self) -> None:
+        cap = self._bt.shape[0] * 2
+        bt = np.empty(cap)
+        bx = np.empty((cap, self._bx.shape[1]))
+        bt[: self._bt.shape[0]] = self._bt
+        bx[: self._bx.shape[0]] = self._bx
+        self._bt, self._bx = bt, bx
+
+    def push(self, t: float, x) -> list[Point]:
+        """Add one sample; return the segment points decided by it (0 or 1 points)."""
+        if self._flushed:
+            raise InvalidSignalError("push() after flush(): start a new Encoder")
+        t = float(t)
+        raw = tuple(float(v) for v in x)
+        if len(raw) != self.dim:
+            raise InvalidSignalError(f"sample {self._n}: expected {self.dim} values, got {len(raw)}")
+        if not math.isfinite(t) or not all(math.isfinite(v) for v in raw):
+            raise InvalidSignalError(f"sample {self._n}: NaN or infinite value")
+        if t <= self._last_t:
+            what = "duplicate" if t == self._last_t else "earlier"
+            raise InvalidSignalError(
+                f"sample {self._n}: time {t!r} is not after the previous time {self._last_t!r} ({what})"
+            )
+        if self.kind == "quaternion":
+            if raw[0] == 0.0 and raw[1] == 0.0 and raw[2] == 0.0 and raw[3] == 0.0:
+                raise InvalidSignalError(f"sample {self._n}: zero-norm quaternion")
+            if self._last_raw is not None:
+                p = self._last_raw
+                dot = raw[0] * p[0] + raw[1] * p[1] + raw[2] * p[2] + raw[3] * p[3]
+                if dot < 0.0:
+                    self._sign = -self._sign
+            s = self._sign
+            self._x[:] = (s * raw[0], s * raw[1], s * raw[2], s * raw[3])
+        else:
+            self._x[:] = raw
+        if self._buffered and self._st[0] + 1 >= self._bt.shape[0]:
+            self._grow()
+        i = self._n
+        if self._buffered:
+            e = self._mod.step(self._fs, self._st, self._bt, self._bx, t, self._x, i, self._th, self._maxlen, self._out)
+        else:
+            e = self._mod.step(self._fs, self._st, t, self._x, i, self._th, self._maxlen, self._out)
+        prev_raw, prev_t = self._last_raw, self._last_t
+        self._last_raw = raw
+        self._last_t = t
+        self._n += 1
+        if e < 0:
+            return []
+        if e == i:  # the first sample
+            return [Point(i, t, raw)]
+        vals = prev_raw if self._pos else tuple(self._out.tolist())
+        return [Point(int(e), prev_t, vals)]
+
+    def flush(self) -> list[Point]:
+        """End of stream: return the final segment point (if any)."""
+        if self._flushed:
+            return []
+        self._flushed = True
+        e = self._mod.flush(self._fs, self._st, self._out)
+        if e < 0:
+            return []
+        vals = self._last_raw if self._pos else tuple(self._out.tolist())
+        return [Point(int(e), self._last_t, vals)]
