@@ -12,9 +12,9 @@ it is bounded by ``L`` SLERP evaluations per sample, and memory by ``L`` buffere
 check stops at the first violating sample, and the sample that failed last time is checked first
 (the error usually grows where it was already large), so rejected candidates cost O(1) in practice.
 
-State: ``fs = [t_anchor, t_prev, q_anchor(4, normalised), q_prev(4, as given)]``,
-``st = [n, prev_index, anchor_index, last_failed_j]`` and a buffer ``bt (cap,)``, ``bq (cap, 4)``
-of normalised samples after the anchor.
+State: ``sc = [t_anchor, t_prev, n, last_failed_j]``, ``qa`` (normalised anchor), ``qp``
+(normalised previous sample), ``qn``, ``tmp`` (scratch) and a buffer ``bt (cap,)``, ``bq (cap, 4)`` of the
+normalised samples after the anchor. Calling convention as in :mod:`mocapkit.pla.fastsw`.
 """
 
 from __future__ import annotations
@@ -27,117 +27,106 @@ import numpy as np
 from mocapkit.quat import _angle_between, _slerp_unit
 
 
-def new_state(capacity: int):
-    return (
-        np.zeros(10),
-        np.array([-1, -1, -1, 0], dtype=np.int64),
-        np.empty(capacity),
-        np.empty((capacity, 4)),
-    )
+def new_state(capacity: int) -> tuple[np.ndarray, ...]:
+    return np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4), np.zeros(4), np.empty(capacity), np.empty((capacity, 4))
 
 
-@numba.njit(cache=True)
-def _segment_ok(fs, bt, bq, m, t, qn, thr, first) -> int:
-    """Return -1 when every buffered sample is within ``thr`` radians, else the failing index."""
-    qa = fs[2:6]
-    tot = t - fs[0]
-    tmp = np.empty(4)
-    if first >= 0 and first < m:
-        f = (bt[first] - fs[0]) / tot
-        _slerp_unit(qa, qn, f, tmp)
-        if _angle_between(bq[first, 0], bq[first, 1], bq[first, 2], bq[first, 3],
-                          tmp[0], tmp[1], tmp[2], tmp[3]) > thr:
-            return first
-    for j in range(m):
-        f = (bt[j] - fs[0]) / tot
-        _slerp_unit(qa, qn, f, tmp)
-        if _angle_between(bq[j, 0], bq[j, 1], bq[j, 2], bq[j, 3], tmp[0], tmp[1], tmp[2], tmp[3]) > thr:
-            return j
-    return -1
+@numba.njit(cache=True, inline="always")
+def _deviation(sc, qa, tmp, bt, bq, j, t, qn) -> float:
+    f = (bt[j] - sc[0]) / (t - sc[0])
+    _slerp_unit(qa, qn, f, tmp)
+    return _angle_between(bq[j, 0], bq[j, 1], bq[j, 2], bq[j, 3], tmp[0], tmp[1], tmp[2], tmp[3])
 
 
-@numba.njit(cache=True)
-def step(fs, st, bt, bq, t, x, idx, thr, maxlen, out) -> int:
-    """``thr`` is the bound in radians; ``x`` a quaternion (any norm, hemisphere-continuous)."""
+@numba.njit(cache=True, inline="always")
+def _normalised(x, q) -> None:
     nrm = math.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3])
-    qn = np.empty(4)
     for d in range(4):
-        qn[d] = x[d] / nrm
-    n = st[0]
-    if n < 0:
-        fs[0] = t
-        fs[1] = t
-        for d in range(4):
-            fs[2 + d] = qn[d]
-            fs[6 + d] = x[d]
-            out[d] = x[d]
-        st[0] = 0
-        st[1] = idx
-        st[2] = idx
-        st[3] = -1
-        return idx
-    n += 1
+        q[d] = x[d] / nrm
+
+
+@numba.njit(cache=True, inline="always")
+def start(sc, qa, qp, qn, tmp, bt, bq, t, x) -> None:
+    _normalised(x, qa)
+    _normalised(x, qp)
+    sc[0] = t
+    sc[1] = t
+    sc[2] = 0.0
+    sc[3] = -1.0
+
+
+@numba.njit(cache=True, inline="always")
+def step(sc, qa, qp, qn, tmp, bt, bq, t, x, thr, maxlen) -> bool:
+    """``thr`` in radians; ``x`` a quaternion (any norm, hemisphere-continuous).
+
+    ``True`` when ``s_{n-1}`` became a segment point. The buffer must hold ``n`` samples.
+    """
+    n = int(sc[2]) + 1
+    _normalised(x, qn)
     ok = maxlen <= 0 or n <= maxlen
     if ok and n > 1:
-        fail = _segment_ok(fs, bt, bq, n - 1, t, qn, thr, st[3])
-        if fail >= 0:
+        first = int(sc[3])
+        if first >= 0 and first < n - 1 and _deviation(sc, qa, tmp, bt, bq, first, t, qn) > thr:
             ok = False
-            st[3] = fail
+        else:
+            for j in range(n - 1):
+                if _deviation(sc, qa, tmp, bt, bq, j, t, qn) > thr:
+                    ok = False
+                    sc[3] = j
+                    break
     if ok:
         bt[n - 1] = t
         for d in range(4):
             bq[n - 1, d] = qn[d]
-            fs[6 + d] = x[d]
-        fs[1] = t
-        st[0] = n
-        st[1] = idx
-        return -1
-    emitted = st[1]
-    fs[0] = fs[1]
-    nrm = math.sqrt(fs[6] * fs[6] + fs[7] * fs[7] + fs[8] * fs[8] + fs[9] * fs[9])
+            qp[d] = qn[d]
+        sc[1] = t
+        sc[2] = n
+        return False
+    sc[0] = sc[1]
     for d in range(4):
-        out[d] = fs[6 + d]
-        fs[2 + d] = fs[6 + d] / nrm
-        fs[6 + d] = x[d]
+        qa[d] = qp[d]
+        qp[d] = qn[d]
         bq[0, d] = qn[d]
     bt[0] = t
-    fs[1] = t
-    st[0] = 1
-    st[1] = idx
-    st[2] = emitted
-    st[3] = -1
-    return emitted
+    sc[1] = t
+    sc[2] = 1.0
+    sc[3] = -1.0
+    return True
 
 
 @numba.njit(cache=True)
-def flush(fs, st, out) -> int:
-    if st[0] <= 0 or st[1] == st[2]:
-        return -1
+def flush(sc, qa, qp, qn, tmp, bt, bq) -> bool:
+    if sc[2] <= 0.0:
+        return False
+    sc[0] = sc[1]
     for d in range(4):
-        out[d] = fs[6 + d]
-    st[2] = st[1]
-    st[0] = 0
-    return st[1]
+        qa[d] = qp[d]
+    sc[2] = 0.0
+    return True
 
 
 @numba.njit(cache=True)
 def batch(t, X, thr, maxlen):
     """Whole-array angle-bounded SW (``thr`` in radians); returns segment point indices."""
     N = X.shape[0]
-    fs = np.zeros(10)
-    st = np.array([-1, -1, -1, 0], dtype=np.int64)
-    bt = np.empty(max(N, 1))
-    bq = np.empty((max(N, 1), 4))
-    out = np.empty(4)
     idx = np.empty(N, dtype=np.int64)
-    m = 0
-    for i in range(N):
-        e = step(fs, st, bt, bq, t[i], X[i], i, thr, maxlen, out)
-        if e >= 0:
-            idx[m] = e
+    if N == 0:
+        return idx
+    sc = np.zeros(4)
+    qa = np.zeros(4)
+    qp = np.zeros(4)
+    qn = np.zeros(4)
+    tmp = np.zeros(4)
+    bt = np.empty(N)
+    bq = np.empty((N, 4))
+    start(sc, qa, qp, qn, tmp, bt, bq, t[0], X[0])
+    idx[0] = 0
+    m = 1
+    for i in range(1, N):
+        if step(sc, qa, qp, qn, tmp, bt, bq, t[i], X[i], thr, maxlen):
+            idx[m] = i - 1
             m += 1
-    e = flush(fs, st, out)
-    if e >= 0:
-        idx[m] = e
+    if flush(sc, qa, qp, qn, tmp, bt, bq):
+        idx[m] = N - 1
         m += 1
     return idx[:m]

@@ -146,7 +146,7 @@ class Encoder:
 
     Memory is O(1) for fastSW, CPLR and the Swing Filter; SW and anglesw buffer the samples of the
     current segment (at most ``max_segment_length``). The points equal those of :func:`compress`
-    on the same samples, bit for bit (both run the same compiled step function).
+    on the same samples, bit for bit (both run the same compiled ``start``/``step``/``flush``).
 
     Parameters are those of :func:`compress`, plus ``dim`` and ``kind`` of the incoming samples.
     """
@@ -172,15 +172,12 @@ class Encoder:
         self._pos = self.method in POS_METHODS
         self._buffered = self.method in ("sw", "anglesw")
         if self.method == "sw":
-            cap = self._maxlen + 1 if self._maxlen else 256
-            self._fs, self._st, self._bt, self._bx = sw.new_state(self.dim, cap)
+            self._state = list(sw.new_state(self.dim, self._maxlen + 1 if self._maxlen else 256))
         elif self.method == "anglesw":
-            cap = self._maxlen + 1 if self._maxlen else 256
-            self._fs, self._st, self._bt, self._bx = anglesw.new_state(cap)
+            self._state = list(anglesw.new_state(self._maxlen + 1 if self._maxlen else 256))
         else:
-            self._fs, self._st = mod.new_state(self.dim)
+            self._state = list(mod.new_state(self.dim))
         self._x = np.empty(self.dim)
-        self._out = np.empty(self.dim)
         self._n = 0
         self._last_t = -math.inf
         self._last_raw: tuple[float, ...] | None = None
@@ -188,12 +185,13 @@ class Encoder:
         self._flushed = False
 
     def _grow(self) -> None:
-        cap = self._bt.shape[0] * 2
-        bt = np.empty(cap)
-        bx = np.empty((cap, self._bx.shape[1]))
-        bt[: self._bt.shape[0]] = self._bt
-        bx[: self._bx.shape[0]] = self._bx
-        self._bt, self._bx = bt, bx
+        bt, bx = self._state[-2], self._state[-1]
+        cap = bt.shape[0] * 2
+        nbt = np.empty(cap)
+        nbx = np.empty((cap, bx.shape[1]))
+        nbt[: bt.shape[0]] = bt
+        nbx[: bx.shape[0]] = bx
+        self._state[-2], self._state[-1] = nbt, nbx
 
     def push(self, t: float, x) -> list[Point]:
         """Add one sample; return the segment points decided by it (0 or 1 points)."""
@@ -215,38 +213,34 @@ class Encoder:
                 raise InvalidSignalError(f"sample {self._n}: zero-norm quaternion")
             if self._last_raw is not None:
                 p = self._last_raw
-                dot = raw[0] * p[0] + raw[1] * p[1] + raw[2] * p[2] + raw[3] * p[3]
-                if dot < 0.0:
+                if raw[0] * p[0] + raw[1] * p[1] + raw[2] * p[2] + raw[3] * p[3] < 0.0:
                     self._sign = -self._sign
             s = self._sign
             self._x[:] = (s * raw[0], s * raw[1], s * raw[2], s * raw[3])
         else:
             self._x[:] = raw
-        if self._buffered and self._st[0] + 1 >= self._bt.shape[0]:
-            self._grow()
+        st = self._state
         i = self._n
-        if self._buffered:
-            e = self._mod.step(self._fs, self._st, self._bt, self._bx, t, self._x, i, self._th, self._maxlen, self._out)
-        else:
-            e = self._mod.step(self._fs, self._st, t, self._x, i, self._th, self._maxlen, self._out)
         prev_raw, prev_t = self._last_raw, self._last_t
         self._last_raw = raw
         self._last_t = t
         self._n += 1
-        if e < 0:
+        if i == 0:
+            self._mod.start(*st, t, self._x)
+            return [Point(0, t, raw)]
+        if self._buffered and int(st[0][2]) + 1 >= st[-2].shape[0]:
+            self._grow()
+            st = self._state
+        if not self._mod.step(*st, t, self._x, self._th, self._maxlen):
             return []
-        if e == i:  # the first sample
-            return [Point(i, t, raw)]
-        vals = prev_raw if self._pos else tuple(self._out.tolist())
-        return [Point(int(e), prev_t, vals)]
+        return [Point(i - 1, prev_t, prev_raw if self._pos else tuple(st[1].tolist()))]
 
     def flush(self) -> list[Point]:
         """End of stream: return the final segment point (if any)."""
         if self._flushed:
             return []
         self._flushed = True
-        e = self._mod.flush(self._fs, self._st, self._out)
-        if e < 0:
+        if self._n == 0 or not self._mod.flush(*self._state):
             return []
-        vals = self._last_raw if self._pos else tuple(self._out.tolist())
-        return [Point(int(e), self._last_t, vals)]
+        vals = self._last_raw if self._pos else tuple(self._state[1].tolist())
+        return [Point(self._n - 1, self._last_t, vals)]

@@ -11,10 +11,10 @@ paper), the regression slope is ``β_d = mean(t·y_d) / mean(t²)`` and the segm
 which is Eq. 13 with ``β_d`` resolved (fastSW paper, note after Eq. 13). When adding ``s_n`` would
 make the SSR exceed the threshold, the segment ends at the time of ``s_{n-1}`` at the value of its
 regression line (an extrapolated point, generally not a sample and not unit length); that point is
-the anchor of the next segment, which starts with ``s_n``.
+the anchor of the next segment, which starts with ``s_n``. A one-sample segment is always accepted.
 
-State: ``fs = [t_anchor, t_prev, mean(t²), anchor(D), mean(t·y)(D), mean(y²)(D)]``,
-``st = [n, prev_index, anchor_index]``.
+State: ``sc = [t_anchor, t_prev, mean(t²), n]``, ``av`` (anchor), ``tym``, ``y2m``. Calling
+convention as in :mod:`mocapkit.pla.fastsw` (the emitted point is the new anchor).
 """
 
 from __future__ import annotations
@@ -23,104 +23,106 @@ import numba
 import numpy as np
 
 
-def new_state(dim: int) -> tuple[np.ndarray, np.ndarray]:
-    return np.zeros(3 + 3 * dim), np.array([-1, -1, -1], dtype=np.int64)
+def new_state(dim: int) -> tuple[np.ndarray, ...]:
+    return np.zeros(4), np.zeros(dim), np.zeros(dim), np.zeros(dim)
 
 
-@numba.njit(cache=True)
-def step(fs, st, t, x, idx, th, maxlen, out) -> int:
+@numba.njit(cache=True, inline="always")
+def start(sc, av, tym, y2m, t, x) -> None:
+    sc[0] = t
+    sc[1] = t
+    sc[2] = 0.0
+    sc[3] = 0.0
+    for d in range(x.shape[0]):
+        av[d] = x[d]
+        tym[d] = 0.0
+        y2m[d] = 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _restart(sc, av, tym, y2m, t, x) -> None:
+    """``s_n`` as the only sample of a new segment anchored at ``(sc[0], av)``."""
+    tn = t - sc[0]
+    sc[2] = tn * tn
+    for d in range(x.shape[0]):
+        y = x[d] - av[d]
+        tym[d] = tn * y
+        y2m[d] = y * y
+    sc[1] = t
+    sc[3] = 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _end(sc, av, tym) -> None:
+    """Move the anchor to the segment's regression line at ``t_prev``."""
+    tp = sc[1] - sc[0]
+    for d in range(av.shape[0]):
+        av[d] = av[d] + tym[d] / sc[2] * tp
+    sc[0] = sc[1]
+
+
+@numba.njit(cache=True, inline="always")
+def step(sc, av, tym, y2m, t, x, th, maxlen) -> bool:
     D = x.shape[0]
-    av = 3
-    tym = 3 + D
-    y2m = 3 + 2 * D
-    n = st[0]
-    if n < 0:
-        fs[0] = t
-        fs[1] = t
-        fs[2] = 0.0
-        for d in range(D):
-            fs[av + d] = x[d]
-            fs[tym + d] = 0.0
-            fs[y2m + d] = 0.0
-            out[d] = x[d]
-        st[0] = 0
-        st[1] = idx
-        st[2] = idx
-        return idx
-    n += 1
-    tn = t - fs[0]
-    t2 = fs[2] + (tn * tn - fs[2]) / n
+    n = sc[3] + 1.0
+    tn = t - sc[0]
+    rn = 1.0 / n
+    t2 = sc[2] + (tn * tn - sc[2]) * rn
     ok = maxlen <= 0 or n <= maxlen
-    if ok and n > 1:
+    if ok and n > 1.0:
         ssr = 0.0
         for d in range(D):
-            y = x[d] - fs[av + d]
-            ty = fs[tym + d] + (tn * y - fs[tym + d]) / n
-            y2 = fs[y2m + d] + (y * y - fs[y2m + d]) / n
+            y = x[d] - av[d]
+            ty = tym[d] + (tn * y - tym[d]) * rn
+            y2 = y2m[d] + (y * y - y2m[d]) * rn
             ssr += (y2 - ty * ty / t2) * n
         ok = ssr <= th
     if ok:
-        fs[2] = t2
+        sc[2] = t2
         for d in range(D):
-            y = x[d] - fs[av + d]
-            fs[tym + d] = fs[tym + d] + (tn * y - fs[tym + d]) / n
-            fs[y2m + d] = fs[y2m + d] + (y * y - fs[y2m + d]) / n
-        fs[1] = t
-        st[0] = n
-        st[1] = idx
-        return -1
-    # end the segment at t_prev on its regression line; that point anchors the next segment
-    emitted = st[1]
-    tp = fs[1] - fs[0]
-    for d in range(D):
-        out[d] = fs[av + d] + fs[tym + d] / fs[2] * tp
-        fs[av + d] = out[d]
-    fs[0] = fs[1]
-    tn = t - fs[0]
-    fs[2] = tn * tn
-    for d in range(D):
-        y = x[d] - fs[av + d]
-        fs[tym + d] = tn * y
-        fs[y2m + d] = y * y
-    fs[1] = t
-    st[0] = 1
-    st[1] = idx
-    st[2] = emitted
-    return emitted
+            y = x[d] - av[d]
+            tym[d] = tym[d] + (tn * y - tym[d]) * rn
+            y2m[d] = y2m[d] + (y * y - y2m[d]) * rn
+        sc[1] = t
+        sc[3] = n
+        return False
+    _end(sc, av, tym)
+    _restart(sc, av, tym, y2m, t, x)
+    return True
 
 
 @numba.njit(cache=True)
-def flush(fs, st, out) -> int:
-    if st[0] <= 0:
-        return -1
-    D = out.shape[0]
-    tp = fs[1] - fs[0]
-    for d in range(D):
-        out[d] = fs[3 + d] + fs[3 + D + d] / fs[2] * tp
-    st[2] = st[1]
-    st[0] = 0
-    return st[1]
+def flush(sc, av, tym, y2m) -> bool:
+    if sc[3] <= 0.0:
+        return False
+    _end(sc, av, tym)
+    sc[3] = 0.0
+    return True
 
 
 @numba.njit(cache=True)
 def batch(t, X, th, maxlen):
     """Whole-array CPLR; returns ``(indices, values)`` of the segment points."""
     N, D = X.shape
-    fs = np.zeros(3 + 3 * D)
-    st = np.array([-1, -1, -1], dtype=np.int64)
-    out = np.empty(D)
     idx = np.empty(N, dtype=np.int64)
     vals = np.empty((N, D))
-    m = 0
-    for i in range(N):
-        e = step(fs, st, t[i], X[i], i, th, maxlen, out)
-        if e >= 0:
-            idx[m] = e
-            vals[m] = out
+    if N == 0:
+        return idx, vals
+    sc = np.zeros(4)
+    av = np.zeros(D)
+    tym = np.zeros(D)
+    y2m = np.zeros(D)
+    start(sc, av, tym, y2m, t[0], X[0])
+    idx[0] = 0
+    vals[0] = av
+    m = 1
+    for i in range(1, N):
+        if step(sc, av, tym, y2m, t[i], X[i], th, maxlen):
+            idx[m] = i - 1
+            vals[m] = av
             m += 1
-    e = flush(fs, st, out)
-    if e >= 0:
-        idx[m] = e
-        vals[m] = out
+    if flush(sc, av, tym, y2m):
+        idx[m] = N - 1
+        vals[m] = av
         m += 1
     return idx[:m], vals[:m]

@@ -8,8 +8,8 @@ Otherwise the segment ends at the time of the previous sample: its slope is the 
 through the anchor, ``mean(t·y_d)/mean(t²)``, clamped into ``[l_d, u_d]``, so every sample of the
 segment lies within ε of the line in every dimension. The end point anchors the next segment.
 
-State: ``fs = [t_anchor, t_prev, mean(t²), anchor(D), mean(t·y)(D), u(D), l(D)]``,
-``st = [n, prev_index, anchor_index]``.
+State: ``sc = [t_anchor, t_prev, mean(t²), n]``, ``av`` (anchor), ``tym``, ``up``, ``lo``. Calling
+convention as in :mod:`mocapkit.pla.fastsw` (the emitted point is the new anchor).
 """
 
 from __future__ import annotations
@@ -18,132 +18,116 @@ import numba
 import numpy as np
 
 
-def new_state(dim: int) -> tuple[np.ndarray, np.ndarray]:
-    return np.zeros(3 + 4 * dim), np.array([-1, -1, -1], dtype=np.int64)
+def new_state(dim: int) -> tuple[np.ndarray, ...]:
+    return np.zeros(4), np.zeros(dim), np.zeros(dim), np.zeros(dim), np.zeros(dim)
 
 
-@numba.njit(cache=True)
-def _start(fs, D, t, x, eps) -> None:
-    """First sample of a segment (relative to the current anchor)."""
-    av = 3
-    tym = 3 + D
-    up = 3 + 2 * D
-    lo = 3 + 3 * D
-    tn = t - fs[0]
-    fs[2] = tn * tn
-    for d in range(D):
-        y = x[d] - fs[av + d]
-        fs[tym + d] = tn * y
-        fs[up + d] = (y + eps) / tn
-        fs[lo + d] = (y - eps) / tn
-    fs[1] = t
+@numba.njit(cache=True, inline="always")
+def start(sc, av, tym, up, lo, t, x) -> None:
+    sc[0] = t
+    sc[1] = t
+    sc[2] = 0.0
+    sc[3] = 0.0
+    for d in range(x.shape[0]):
+        av[d] = x[d]
 
 
-@numba.njit(cache=True)
-def step(fs, st, t, x, idx, eps, maxlen, out) -> int:
+@numba.njit(cache=True, inline="always")
+def _restart(sc, av, tym, up, lo, t, x, eps) -> None:
+    """``s_n`` as the first sample of a segment anchored at ``(sc[0], av)``: initial bounds."""
+    tn = t - sc[0]
+    sc[2] = tn * tn
+    for d in range(x.shape[0]):
+        y = x[d] - av[d]
+        tym[d] = tn * y
+        up[d] = (y + eps) / tn
+        lo[d] = (y - eps) / tn
+    sc[1] = t
+    sc[3] = 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _end(sc, av, tym, up, lo) -> None:
+    """Move the anchor to ``t_prev`` along the least-squares slope clamped into ``[l, u]``."""
+    tp = sc[1] - sc[0]
+    for d in range(av.shape[0]):
+        s = tym[d] / sc[2]
+        if s > up[d]:
+            s = up[d]
+        if s < lo[d]:
+            s = lo[d]
+        av[d] = av[d] + s * tp
+    sc[0] = sc[1]
+
+
+@numba.njit(cache=True, inline="always")
+def step(sc, av, tym, up, lo, t, x, eps, maxlen) -> bool:
     D = x.shape[0]
-    av = 3
-    tym = 3 + D
-    up = 3 + 2 * D
-    lo = 3 + 3 * D
-    n = st[0]
-    if n < 0:
-        fs[0] = t
-        fs[1] = t
-        for d in range(D):
-            fs[av + d] = x[d]
-            out[d] = x[d]
-        st[0] = 0
-        st[1] = idx
-        st[2] = idx
-        return idx
-    n += 1
-    if n == 1:
-        _start(fs, D, t, x, eps)
-        st[0] = 1
-        st[1] = idx
-        return -1
-    tn = t - fs[0]
+    n = sc[3] + 1.0
+    if n == 1.0:
+        _restart(sc, av, tym, up, lo, t, x, eps)
+        return False
+    tn = t - sc[0]
     ok = maxlen <= 0 or n <= maxlen
     if ok:
         for d in range(D):
-            y = x[d] - fs[av + d]
-            if (y + eps) / tn < fs[lo + d] or (y - eps) / tn > fs[up + d]:
+            y = x[d] - av[d]
+            if (y + eps) / tn < lo[d] or (y - eps) / tn > up[d]:
                 ok = False
                 break
     if ok:
-        fs[2] = fs[2] + (tn * tn - fs[2]) / n
+        rn = 1.0 / n
+        sc[2] = sc[2] + (tn * tn - sc[2]) * rn
         for d in range(D):
-            y = x[d] - fs[av + d]
+            y = x[d] - av[d]
             hi = (y + eps) / tn
             lw = (y - eps) / tn
-            if hi < fs[up + d]:
-                fs[up + d] = hi
-            if lw > fs[lo + d]:
-                fs[lo + d] = lw
-            fs[tym + d] = fs[tym + d] + (tn * y - fs[tym + d]) / n
-        fs[1] = t
-        st[0] = n
-        st[1] = idx
-        return -1
-    emitted = st[1]
-    _end_point(fs, D, out)
-    for d in range(D):
-        fs[av + d] = out[d]
-    fs[0] = fs[1]
-    _start(fs, D, t, x, eps)
-    st[0] = 1
-    st[1] = idx
-    st[2] = emitted
-    return emitted
+            if hi < up[d]:
+                up[d] = hi
+            if lw > lo[d]:
+                lo[d] = lw
+            tym[d] = tym[d] + (tn * y - tym[d]) * rn
+        sc[1] = t
+        sc[3] = n
+        return False
+    _end(sc, av, tym, up, lo)
+    _restart(sc, av, tym, up, lo, t, x, eps)
+    return True
 
 
 @numba.njit(cache=True)
-def _end_point(fs, D, out) -> None:
-    """Value at ``t_prev`` of the line with the least-squares slope clamped into ``[l, u]``."""
-    av = 3
-    tym = 3 + D
-    up = 3 + 2 * D
-    lo = 3 + 3 * D
-    tp = fs[1] - fs[0]
-    for d in range(D):
-        s = fs[tym + d] / fs[2]
-        if s > fs[up + d]:
-            s = fs[up + d]
-        if s < fs[lo + d]:
-            s = fs[lo + d]
-        out[d] = fs[av + d] + s * tp
-
-
-@numba.njit(cache=True)
-def flush(fs, st, out) -> int:
-    if st[0] <= 0:
-        return -1
-    _end_point(fs, out.shape[0], out)
-    st[2] = st[1]
-    st[0] = 0
-    return st[1]
+def flush(sc, av, tym, up, lo) -> bool:
+    if sc[3] <= 0.0:
+        return False
+    _end(sc, av, tym, up, lo)
+    sc[3] = 0.0
+    return True
 
 
 @numba.njit(cache=True)
 def batch(t, X, eps, maxlen):
     """Whole-array Swing Filter; returns ``(indices, values)`` of the segment points."""
     N, D = X.shape
-    fs = np.zeros(3 + 4 * D)
-    st = np.array([-1, -1, -1], dtype=np.int64)
-    out = np.empty(D)
     idx = np.empty(N, dtype=np.int64)
     vals = np.empty((N, D))
-    m = 0
-    for i in range(N):
-        e = step(fs, st, t[i], X[i], i, eps, maxlen, out)
-        if e >= 0:
-            idx[m] = e
-            vals[m] = out
+    if N == 0:
+        return idx, vals
+    sc = np.zeros(4)
+    av = np.zeros(D)
+    tym = np.zeros(D)
+    up = np.zeros(D)
+    lo = np.zeros(D)
+    start(sc, av, tym, up, lo, t[0], X[0])
+    idx[0] = 0
+    vals[0] = av
+    m = 1
+    for i in range(1, N):
+        if step(sc, av, tym, up, lo, t[i], X[i], eps, maxlen):
+            idx[m] = i - 1
+            vals[m] = av
             m += 1
-    e = flush(fs, st, out)
-    if e >= 0:
-        idx[m] = e
-        vals[m] = out
+    if flush(sc, av, tym, up, lo):
+        idx[m] = N - 1
+        vals[m] = av
         m += 1
     return idx[:m], vals[:m]

@@ -1,0 +1,289 @@
+"""The ``mocapkit`` command line (typer + rich). Thin: parse, call the library, print or write."""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from enum import Enum
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from mocapkit.errors import InvalidParameterError, MocapError
+
+app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="Compress, filter and segment human-motion recordings.",
+)
+err = Console(stderr=True)
+
+
+class Method(str, Enum):
+    fastsw = "fastsw"
+    sw = "sw"
+    cplr = "cplr"
+    swing = "swing"
+    anglesw = "anglesw"
+
+
+RateOpt = Annotated[
+    Optional[float],
+    typer.Option("--rate", help="Sample rate in Hz, for files without timestamps (legacy x-io, Xsens)."),
+]
+MethodOpt = Annotated[Method, typer.Option("--method", "-m", help="PLA method.")]
+ThresholdOpt = Annotated[
+    Optional[float],
+    typer.Option(
+        "--threshold",
+        "-t",
+        help="The method's own bound: SSR per segment (fastsw, sw, cplr), ε per sample (swing), degrees (anglesw).",
+    ),
+]
+MaxAngleOpt = Annotated[
+    Optional[float],
+    typer.Option("--max-angle", help="Guarantee: every sample within DEG degrees of the SLERP decode (verified)."),
+]
+MaxLenOpt = Annotated[
+    Optional[int],
+    typer.Option("--max-segment-length", help="At most N sample intervals between segment points."),
+]
+
+
+def _one_control(threshold, target_icr, max_angle) -> None:
+    if sum(x is not None for x in (threshold, target_icr, max_angle)) != 1:
+        raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-angle")
+
+
+def _record(name: str, source: str, comp, metrics, mode: str, target) -> dict:
+    return {
+        "name": name,
+        "source": source,
+        "method": comp.method,
+        "mode": mode,
+        "target": target,
+        "threshold": comp.threshold,
+        "max_segment_length": comp.max_segment_length,
+        "n_samples": metrics.n_samples,
+        "n_points": metrics.n_points,
+        "icr": metrics.icr,
+        "mean_segment_length": metrics.mean_segment_length,
+        "aad_deg": metrics.aad_deg,
+        "max_deg": metrics.max_deg,
+        "std_deg": metrics.std_deg,
+        "point_mean_deg": metrics.point_mean_deg,
+        "point_max_deg": metrics.point_max_deg,
+    }
+
+
+def _summary_table(records: list[dict], title: str) -> Table:
+    tab = Table(title=title)
+    for col in ("signal", "method", "threshold", "samples", "points", "ICR", "AAD °", "max °", "std °"):
+        tab.add_column(col, justify="right" if col not in ("signal", "method") else "left")
+    for r in records:
+        tab.add_row(
+            r["name"], r["method"], f"{r['threshold']:.4g}", str(r["n_samples"]), str(r["n_points"]),
+            f"{r['icr']:.4f}", f"{r['aad_deg']:.3f}", f"{r['max_deg']:.3f}", f"{r['std_deg']:.3f}",
+        )
+    return tab
+
+
+@app.command()
+def compress(
+    input: Annotated[Path, typer.Argument(help="An IMU file or a folder of sensors.")],
+    output: Annotated[
+        Optional[Path], typer.Option("--output", "-o", help="Points CSV (a folder when INPUT is a folder).")
+    ] = None,
+    method: MethodOpt = Method.fastsw,
+    threshold: ThresholdOpt = None,
+    target_icr: Annotated[
+        Optional[float], typer.Option("--target-icr", help="Find the threshold giving this ICR (points/samples).")
+    ] = None,
+    max_angle: MaxAngleOpt = None,
+    max_segment_length: MaxLenOpt = None,
+    rate: RateOpt = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object per signal (a list).")] = False,
+) -> None:
+    """Compress orientation streams to segment points (CSV time,w,x,y,z)."""
+    from mocapkit.io import load_signals, write_signal_csv
+    from mocapkit.pla import compress_to, evaluate
+
+    _one_control(threshold, target_icr, max_angle)
+    signals = load_signals(input, rate=rate)
+    folder_mode = input.is_dir()
+    if folder_mode and output is not None and output.exists() and not output.is_dir():
+        raise InvalidParameterError(f"{output}: INPUT is a folder, so --output must be a folder")
+    mode, target = (
+        ("threshold", threshold) if threshold is not None
+        else ("target_icr", target_icr) if target_icr is not None
+        else ("max_angle", max_angle)
+    )
+    records = []
+    for name, sig in signals.items():
+        comp = compress_to(
+            sig, method.value, threshold=threshold, target_icr=target_icr, max_angle=max_angle,
+            max_segment_length=max_segment_length,
+        )
+        met = evaluate(sig, comp)
+        records.append(_record(name, sig.source, comp, met, mode, target))
+        if output is not None:
+            dest = output / f"{name}.csv" if folder_mode else output
+            if folder_mode:
+                output.mkdir(parents=True, exist_ok=True)
+            write_signal_csv(dest, comp.times, comp.values)
+        elif not folder_mode and not as_json:
+            sys.stdout.write("time,w,x,y,z\n")
+            for t, v in zip(comp.times.tolist(), comp.values.tolist()):
+                sys.stdout.write(",".join(repr(x) for x in (t, *v)) + "\n")
+    if as_json:
+        print(json.dumps(records, indent=1))
+    else:
+        err.print(_summary_table(records, f"{method.value}: {mode} {target:g}"))
+
+
+@app.command()
+def decompress(
+    points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Reconstructed CSV.")],
+    times_from: Annotated[
+        Optional[Path], typer.Option("--times-from", help="Decode at the timestamps of this original file.")
+    ] = None,
+    rate: Annotated[Optional[float], typer.Option("--rate", help="Decode on a uniform grid at HZ.")] = None,
+) -> None:
+    """Reconstruct a full-rate quaternion signal from segment points by SLERP."""
+    import numpy as np
+
+    from mocapkit.io import load_signals, read_imu_csv, write_signal_csv
+    from mocapkit.pla.reconstruct import reconstruct_points
+    from mocapkit.quat import normalize
+
+    if (times_from is None) == (rate is None):
+        raise InvalidParameterError("give exactly one of --times-from ORIGINAL or --rate HZ")
+    pts = read_imu_csv(points)
+    if times_from is not None:
+        originals = load_signals(times_from)
+        if len(originals) != 1:
+            raise InvalidParameterError(f"{times_from}: expected one signal, found {len(originals)}")
+        t = next(iter(originals.values())).times
+    else:
+        if not (math.isfinite(rate) and rate > 0):
+            raise InvalidParameterError(f"--rate must be a positive number, got {rate!r}")
+        n = int(math.floor((pts.times[-1] - pts.times[0]) * rate + 1e-9)) + 1
+        t = pts.times[0] + np.arange(n) / rate
+    if len(pts) == 1:
+        vals = np.repeat(normalize(pts.values), len(t), axis=0)
+    else:
+        vals = reconstruct_points(pts.times, pts.values, t, "quaternion")
+    write_signal_csv(output, t, vals)
+    err.print(f"{points}: {len(pts)} points -> {len(t)} samples in {output}")
+
+
+@app.command()
+def stream(
+    method: MethodOpt = Method.fastsw,
+    threshold: ThresholdOpt = None,
+    max_angle: MaxAngleOpt = None,
+    max_segment_length: MaxLenOpt = None,
+    rate: RateOpt = None,
+) -> None:
+    """Read IMU CSV rows from stdin; write each segment point to stdout the moment it is decided."""
+    from mocapkit.io.streamcsv import iter_samples
+    from mocapkit.pla import Encoder
+
+    if (threshold is None) == (max_angle is None):
+        raise InvalidParameterError("give exactly one of --threshold or --max-angle (a target ICR needs the whole signal)")
+    m = method.value
+    if max_angle is not None:
+        if m not in ("anglesw", "fastsw"):
+            raise InvalidParameterError("--max-angle in a stream uses --method anglesw (online, guaranteed)")
+        m, threshold = "anglesw", max_angle
+    enc = Encoder(m, threshold, max_segment_length=max_segment_length)
+    out = sys.stdout
+
+    def emit(points) -> None:
+        for p in points:
+            out.write(",".join(repr(float(v)) for v in (p.time, *p.values)) + "\n")
+        if points:
+            out.flush()
+
+    out.write("time,w,x,y,z\n")
+    out.flush()
+    try:
+        for _lineno, t, q in iter_samples(sys.stdin, "<stdin>", rate):
+            emit(enc.push(t, q))
+    finally:
+        emit(enc.flush())
+
+
+@app.command()
+def sweep(
+    inputs: Annotated[list[Path], typer.Argument(help="IMU files or sensor folders.")],
+    out: Annotated[Path, typer.Option("--out", help="Folder for sweep.csv and the figures.")] = Path("sweep-out"),
+    n_thresholds: Annotated[int, typer.Option("--thresholds", help="Thresholds: 0 plus N-1 log-spaced in 1e-6..1e3.")] = 205,
+    max_segment_length: Annotated[int, typer.Option("--max-segment-length")] = 1000,
+    rate: RateOpt = None,
+) -> None:
+    """The fastSW paper's experiments: 4 methods x 205 thresholds on every sensor; CSV + figures."""
+    from mocapkit.evaluation.sweep import run_sweep, summarise, write_outputs
+    from mocapkit.io import load_signals
+
+    signals = {}
+    for p in inputs:
+        for name, sig in load_signals(p, rate=rate).items():
+            key = name if name not in signals else f"{p.stem}/{name}"
+            signals[key] = sig
+    rows = run_sweep(signals, n_thresholds=n_thresholds, max_segment_length=max_segment_length, progress=err)
+    paths = write_outputs(rows, out)
+    err.print(summarise(rows))
+    for p in paths:
+        err.print(f"wrote {p}")
+
+
+@app.command()
+def bench(
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON records.")] = False,
+    channels: Annotated[int, typer.Option("--channels", help="Channels in the many-channel batch run.")] = 31,
+    frames: Annotated[int, typer.Option("--frames", help="Frames per channel in the many-channel run.")] = 100_000,
+    quick: Annotated[bool, typer.Option("--quick", help="Smaller sizes (for a smoke test).")] = False,
+) -> None:
+    """ns/sample of batch kernels and streaming encoders vs mean segment length; fastSW/SW ratio."""
+    from mocapkit.evaluation.bench import run_bench
+
+    records, summary = run_bench(channels=channels, frames=frames, quick=quick, progress=None if as_json else err)
+    if as_json:
+        print(json.dumps(records, indent=1))
+    else:
+        err.print(summary)
+
+
+@app.command()
+def demo(
+    out: Annotated[Path, typer.Option("--out", help="Where to write the segment points.")] = Path("demo-out"),
+) -> None:
+    """Compress the bundled x-io lower-body walk (7 IMUs) with every method; print the trade-offs."""
+    from mocapkit.evaluation.demo import run_demo
+
+    run_demo(out, err)
+
+
+def main() -> None:
+    try:
+        app()
+    except MocapError as e:
+        sys.stderr.write(f"error: {e}\n")
+        sys.exit(2)
+    except OSError as e:
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        sys.stderr.write(f"error: {where}{e.strerror or e}\n")
+        sys.exit(2)
+    except KeyboardInterrupt:
+        sys.exit(130)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""Sweeps, benchmarks and the demo: the paper's experiments and our own measurements."""

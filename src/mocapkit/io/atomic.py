@@ -1,0 +1,66 @@
+"""Atomic file writes: write a temporary file in the target's folder, then ``os.replace`` it.
+
+A reader (or a crash) never sees a half-written output file: either the old file or the complete new
+one is there.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import IO
+
+
+def _target_mode(path: Path) -> int:
+    """Permissions for the new file: those of the file it replaces, else ``0o666 & ~umask``."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except OSError:
+        mask = os.umask(0)
+        os.umask(mask)
+        return 0o666 & ~mask
+
+
+@contextlib.contextmanager
+def atomic_writer(path: str | os.PathLike[str], *, binary: bool = False,
+                  encoding: str = "utf-8") -> Iterator[IO]:
+    """Context manager yielding a file object; on a clean exit the file replaces ``path``.
+
+    The data goes to a temporary file in the same folder (so ``os.replace`` is atomic), is flushed and
+    fsync'ed, and then renamed onto ``path``. If the block raises, the temporary file is removed and
+    ``path`` is left untouched. Text mode writes ``"\\n"`` line ends unchanged on every platform.
+    """
+    target = Path(path)
+    folder = target.parent if str(target.parent) else Path(".")
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    tmp = Path(tmp_name)
+    try:
+        if binary:
+            fh = os.fdopen(fd, "wb")
+        else:
+            fh = os.fdopen(fd, "w", encoding=encoding, newline="")
+        with fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, _target_mode(target))
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def atomic_write_text(path: str | os.PathLike[str], text: str, encoding: str = "utf-8") -> None:
+    """Write ``text`` to ``path`` atomically (``"\\n"`` is written as is, no newline translation)."""
+    with atomic_writer(path, encoding=encoding) as fh:
+        fh.write(text)
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically."""
+    with atomic_writer(path, binary=True) as fh:
+        fh.write(data)

@@ -1,0 +1,80 @@
+"""Matplotlib figures (written as PNG; the Agg backend, no screen needed)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+COLORS = {"cplr": "tab:blue", "swing": "tab:orange", "sw": "tab:green", "fastsw": "tab:red", "anglesw": "tab:purple"}
+LABELS = {"cplr": "CPLR", "swing": "SF", "sw": "SW", "fastsw": "fastSW", "anglesw": "angle-SW"}
+
+
+def _save(fig, path: Path) -> Path:
+    from mocapkit.io.atomic import atomic_writer
+
+    path = Path(path)
+    with atomic_writer(path, binary=True) as fh:
+        fig.savefig(fh, format="png", dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _by_method(agg: list[dict]) -> dict[str, list[dict]]:
+    out: dict[str, list[dict]] = {}
+    for r in agg:
+        out.setdefault(r["method"], []).append(r)
+    return out
+
+
+def plot_sweep_time(agg: list[dict], path: Path) -> Path:
+    """Like Figure 3 of the fastSW paper: time per sample vs mean segment length (log y)."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharex=True)
+    for m, rs in _by_method(agg).items():
+        rs = sorted(rs, key=lambda r: r["mean_segment_length"])
+        x = [r["mean_segment_length"] for r in rs]
+        axes[0].plot(x, [r["batch_ns_per_sample"] for r in rs], ".-", ms=3, color=COLORS.get(m), label=LABELS.get(m, m))
+        axes[1].plot(x, [r["stream_mean_ns"] for r in rs], ".-", ms=3, color=COLORS.get(m), label=LABELS.get(m, m))
+    axes[0].set_title("compiled batch kernel")
+    axes[1].set_title("streaming encoder (one push() per sample)")
+    for ax in axes:
+        ax.set_yscale("log")
+        ax.set_xlabel("mean segment length [samples]")
+        ax.set_ylabel("mean time per sample [ns]")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_sweep_error(agg: list[dict], path: Path) -> Path:
+    """Like Figure 4 of the fastSW paper: angular deviation vs ICR, of the SLERP decode (left) and of
+    the segment points themselves (right); mean (solid), ±std (shaded), max (dashed)."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for m, rs in _by_method(agg).items():
+        rs = sorted(rs, key=lambda r: r["icr"])
+        icr = np.array([r["icr"] for r in rs])
+        c = COLORS.get(m)
+        mean = np.array([r["aad_deg"] for r in rs])
+        std = np.array([r["std_deg"] for r in rs])
+        axes[0].plot(icr, mean, "-", color=c, label=LABELS.get(m, m))
+        axes[0].fill_between(icr, np.maximum(mean - std, 1e-6), mean + std, color=c, alpha=0.12)
+        axes[0].plot(icr, [r["max_deg"] for r in rs], "--", color=c, lw=0.8)
+        pm = np.maximum([r["point_mean_deg"] for r in rs], 1e-9)
+        axes[1].plot(icr, pm, "-", color=c, label=LABELS.get(m, m))
+        axes[1].plot(icr, np.maximum([r["point_max_deg"] for r in rs], 1e-9), "--", color=c, lw=0.8)
+    axes[0].set_title("decoded signal (SLERP) vs original")
+    axes[1].set_title("segment points vs original samples")
+    for ax in axes:
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("ICR (points / samples)")
+        ax.set_ylabel("angular deviation [°]")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+    fig.tight_layout()
+    return _save(fig, path)
