@@ -57,8 +57,13 @@ def prepare(values: np.ndarray, kind: str) -> np.ndarray:
 
 
 def _unit(q: np.ndarray) -> np.ndarray:
+    """``q / |q|`` along the last axis, element-wise in a fixed order (so equal rows give equal
+    results whatever the array's shape: no BLAS / pairwise reductions)."""
     q = np.asarray(q, dtype=np.float64)
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+    ss = q[..., 0] * q[..., 0]
+    for k in range(1, q.shape[-1]):
+        ss = ss + q[..., k] * q[..., k]
+    return q / np.sqrt(ss)[..., None]
 
 
 def quat_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -77,7 +82,8 @@ def quat_angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def slerp_ref(q0: np.ndarray, q1: np.ndarray, f: np.ndarray) -> np.ndarray:
     """Textbook SLERP along the shortest arc between the normalised ``q0`` and ``q1``.
 
-    ``q0`` and ``q1`` are single quaternions (4,), ``f`` an array of fractions; returns (len(f), 4).
+    ``q0`` and ``q1`` are single quaternions (4,), ``f`` an array of fractions; returns (len(f), 4)
+    unit quaternions (except when both ends are the same rotation: then ``q0`` as given).
     """
     a = _unit(np.asarray(q0, dtype=np.float64))
     b = _unit(np.asarray(q1, dtype=np.float64))
@@ -85,6 +91,10 @@ def slerp_ref(q0: np.ndarray, q1: np.ndarray, f: np.ndarray) -> np.ndarray:
     if float(np.dot(a, b)) < 0.0:
         b = -b
     omega = 2.0 * math.atan2(float(np.linalg.norm(a - b)), float(np.linalg.norm(a + b)))
+    if omega == 0.0:
+        # the same rotation at both ends: the arc is that rotation itself.  Return q0 exactly as
+        # given (not re-normalised) so that a sample bit-identical to q0 is at angle exactly 0.
+        return np.tile(np.asarray(q0, dtype=np.float64), (f.shape[0], 1))
     if omega < 1e-12:
         out = (1.0 - f)[:, None] * a + f[:, None] * b
         return _unit(out)

@@ -87,6 +87,13 @@ def random_quaternions(rng: np.random.Generator, t: np.ndarray) -> np.ndarray:
             w = w + rng.normal(size=3) * speed * 0.3
             r = r * Rotation.from_rotvec(w * (t[i] - t[i - 1]))
         out[i] = ref.from_scipy(r)
+    norm = int(rng.integers(3))
+    if norm == 1:  # like the x-io sensor: |q| ≈ 1.00012
+        out *= 1.00012
+    elif norm == 2:
+        out *= (1.0 + rng.normal(0.0, 1e-3, n))[:, None]
+    # stationary stretches are bit-identical rows (copied after the norm perturbation: rows that
+    # are merely parallel would be the same rotation only up to rounding, a float tie at TH = 0)
     out = _holds(rng, out)
     mode = int(rng.integers(4))
     if mode == 1:  # random single flips
@@ -98,11 +105,6 @@ def random_quaternions(rng: np.random.Generator, t: np.ndarray) -> np.ndarray:
     elif mode == 3:  # both
         out[rng.random(n) < 0.1] *= -1.0
         out *= np.cumprod(np.where(rng.random(n) < 0.05, -1.0, 1.0))[:, None]
-    norm = int(rng.integers(3))
-    if norm == 1:  # like the x-io sensor: |q| ≈ 1.00012
-        out *= 1.00012
-    elif norm == 2:
-        out *= (1.0 + rng.normal(0.0, 1e-3, n))[:, None]
     return out
 
 
@@ -270,6 +272,20 @@ def test_max_segment_length_boundary(method):
         assert c.indices.tolist() == expected, (L, c.indices.tolist())
         np.testing.assert_array_equal(c.values, sig.values[expected])
         assert_same_as_reference(sig, method, 0.0, L)
+
+
+@pytest.mark.parametrize("scale", [1.0, 1.00012, 0.7])
+def test_anglesw_zero_threshold_identical_samples(scale):
+    """anglesw at 0°: samples bit-identical to both ends of a segment lie exactly on its SLERP
+    (angle 0 <= 0), so a stationary stretch of identical rows must stay ONE segment.  The x-io
+    sensor's quaternions have |q| ≈ 1.00012, hence the non-unit scales."""
+    q = np.array([-0.17105523944309478, -0.8020629430757665, 0.32541550640666705, 0.47093513671608495])
+    q = q / np.linalg.norm(q) * scale
+    for t in (np.arange(10) * 0.02, np.arange(10) * 1.0):
+        sig = Signal(t, np.tile(q, (10, 1)), "quaternion")
+        assert ref.ref_anglesw(sig.times, sig.values, "quaternion", 0.0)[0].tolist() == [0, 9]
+        got = compress(sig, "anglesw", 0.0).indices.tolist()
+        assert got == [0, 9], f"|q| = {scale}, dt = {t[1]}: anglesw at 0° cut a constant signal at {got}"
 
 
 @HSET

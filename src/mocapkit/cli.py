@@ -239,6 +239,10 @@ def sweep(
             signals[key] = sig
     rows = run_sweep(signals, n_thresholds=n_thresholds, max_segment_length=max_segment_length, progress=err)
     paths = write_outputs(rows, out)
+    if all(s.kind == "quaternion" for s in signals.values()):
+        from mocapkit.evaluation.sweep import write_max_angle
+
+        paths.append(write_max_angle(signals, out))
     err.print(summarise(rows))
     for p in paths:
         err.print(f"wrote {p}")

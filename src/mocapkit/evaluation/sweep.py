@@ -148,6 +148,16 @@ def write_outputs(rows: list[dict], out: Path) -> list[Path]:
     return paths
 
 
+def write_max_angle(signals: dict[str, Signal], out: Path, max_segment_length: int = 200) -> Path:
+    """Points needed for a guaranteed maximum angle: optimum vs anglesw vs the tuned paper methods."""
+    from mocapkit.evaluation.maxangle import compare
+
+    rows = compare(signals, max_segment_length=max_segment_length)
+    path = out / "max_angle.csv"
+    _write_csv(path, rows, list(rows[0].keys()))
+    return path
+
+
 def at_icr(agg: list[dict], method: str, icr: float) -> dict:
     """The aggregated row of ``method`` whose ICR is closest to ``icr`` from below."""
     cands = [r for r in agg if r["method"] == method and r["icr"] <= icr]

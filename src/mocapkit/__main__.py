@@ -1,0 +1,3 @@
+from mocapkit.cli import main
+
+main()
