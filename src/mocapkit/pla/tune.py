@@ -81,7 +81,7 @@ def threshold_for_max_angle(
     if method == "anglesw":
         return compress(signal, method, max_angle_deg, max_segment_length)
     X = prepared_values(signal)
-    bound = max_angle_deg + BOUND_TOL_DEG
+    bound = max_angle_deg  # candidates must meet the bound itself; the slack is only for verification
 
     def run(th: float) -> tuple[Compressed, bool]:
         c = compress(signal, method, th, max_segment_length, _prepared=X)
