@@ -25,3 +25,4 @@ sweep: $(STAMP)
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info
+	find src -name '*.nbi' -delete -o -name '*.nbc' -delete

@@ -27,7 +27,8 @@ def _hemisphere_signs(q: np.ndarray) -> np.ndarray:
     s = np.ones(n)
     for i in range(1, n):
         dot = q[i, 0] * q[i - 1, 0] + q[i, 1] * q[i - 1, 1] + q[i, 2] * q[i - 1, 2] + q[i, 3] * q[i - 1, 3]
-        s[i] = -s[i - 1] if dot < 0.0 else s[i - 1]
+        # negate when the dot with the *continuous* previous sample (s[i-1]·q[i-1]) is negative
+        s[i] = -1.0 if s[i - 1] * dot < 0.0 else 1.0
     return s
 
 
@@ -113,6 +114,10 @@ def _slerp_unit(a, b, f, out) -> None:
         s = a[k] + sg * b[k]
         d2 += d * d
         s2 += s * s
+    if d2 == 0.0:  # the same point: return it exactly (no rounding from the weights)
+        for k in range(4):
+            out[k] = a[k]
+        return
     om = 2.0 * math.atan2(math.sqrt(d2), math.sqrt(s2))  # angle between a and sg*b on S^3
     so = math.sin(om)
     if so < 1e-12:
@@ -158,7 +163,8 @@ def slerp(q0: np.ndarray, q1: np.ndarray, f: np.ndarray) -> np.ndarray:
     w0 = np.where(small, 1.0 - f, np.sin((1.0 - f) * om) / safe)
     w1 = np.where(small, f, np.sin(f * om) / safe)
     out = w0[..., None] * a + w1[..., None] * b
-    return out / np.linalg.norm(out, axis=-1, keepdims=True)
+    out = out / np.linalg.norm(out, axis=-1, keepdims=True)
+    return np.where((om == 0.0)[..., None], a, out)  # equal ends: exactly that point
 
 
 def multiply(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:

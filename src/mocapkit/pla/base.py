@@ -213,8 +213,8 @@ class Encoder:
                 raise InvalidSignalError(f"sample {self._n}: zero-norm quaternion")
             if self._last_raw is not None:
                 p = self._last_raw
-                if raw[0] * p[0] + raw[1] * p[1] + raw[2] * p[2] + raw[3] * p[3] < 0.0:
-                    self._sign = -self._sign
+                dot = raw[0] * p[0] + raw[1] * p[1] + raw[2] * p[2] + raw[3] * p[3]
+                self._sign = -1.0 if self._sign * dot < 0.0 else 1.0  # as quat.hemisphere_continuous
             s = self._sign
             self._x[:] = (s * raw[0], s * raw[1], s * raw[2], s * raw[3])
         else:
