@@ -18,7 +18,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)
-	$(BIN)/mocapkit bench
+	$(BIN)/mocapkit bench --json > docs/bench.json
 
 sweep: $(STAMP)
 	$(BIN)/mocapkit sweep ../shared/data/imu/xio-lower-body --out docs/sweep

@@ -215,3 +215,17 @@ def test_bench_quick_json():
     for m in ("fastsw", "sw", "cplr", "swing"):
         assert (m, "batch") in methods and (m, "stream") in methods
     assert all(x["ns_per_sample"] > 0 for x in recs if "ns_per_sample" in x)
+
+
+def test_rate_for_files_without_timestamps(tests_data, tmp_path):
+    legacy = tests_data / "formats" / "legacy_xio.csv"
+    r = run("compress", legacy, "--threshold", "0")
+    assert r.returncode == 2 and "--rate" in r.stderr
+    pts = tmp_path / "pts.csv"
+    r = run("compress", legacy, "--rate", "100", "--threshold", "1e-4", "-o", pts)
+    assert r.returncode == 0, r.stderr
+    full = tmp_path / "full.csv"
+    r = run("decompress", pts, "--times-from", legacy, "--rate", "100", "-o", full)
+    assert r.returncode == 0, r.stderr
+    orig = read_imu_csv(legacy, rate=100)
+    assert np.array_equal(read_imu_csv(full).times, orig.times)

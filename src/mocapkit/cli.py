@@ -153,7 +153,13 @@ def decompress(
     times_from: Annotated[
         Optional[Path], typer.Option("--times-from", help="Decode at the timestamps of this original file.")
     ] = None,
-    rate: Annotated[Optional[float], typer.Option("--rate", help="Decode on a uniform grid at HZ.")] = None,
+    rate: Annotated[
+        Optional[float],
+        typer.Option(
+            "--rate",
+            help="Decode on a uniform grid at HZ; with --times-from, the rate of an ORIGINAL without timestamps.",
+        ),
+    ] = None,
 ) -> None:
     """Reconstruct a full-rate quaternion signal from segment points by SLERP."""
     import numpy as np
@@ -162,11 +168,11 @@ def decompress(
     from mocapkit.pla.reconstruct import reconstruct_points
     from mocapkit.quat import normalize
 
-    if (times_from is None) == (rate is None):
-        raise InvalidParameterError("give exactly one of --times-from ORIGINAL or --rate HZ")
+    if times_from is None and rate is None:
+        raise InvalidParameterError("give --times-from ORIGINAL or --rate HZ")
     pts = read_imu_csv(points)
     if times_from is not None:
-        originals = load_signals(times_from)
+        originals = load_signals(times_from, rate=rate)
         if len(originals) != 1:
             raise InvalidParameterError(f"{times_from}: expected one signal, found {len(originals)}")
         t = next(iter(originals.values())).times
@@ -258,11 +264,10 @@ def bench(
     """ns/sample of batch kernels and streaming encoders vs mean segment length; fastSW/SW ratio."""
     from mocapkit.evaluation.bench import run_bench
 
-    records, summary = run_bench(channels=channels, frames=frames, quick=quick, progress=None if as_json else err)
+    records, summary = run_bench(channels=channels, frames=frames, quick=quick, progress=err)
+    err.print(summary)  # the table goes to stderr, so `--json > file` keeps both
     if as_json:
         print(json.dumps(records, indent=1))
-    else:
-        err.print(summary)
 
 
 @app.command()

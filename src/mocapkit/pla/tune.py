@@ -15,7 +15,7 @@ from mocapkit.pla.metrics import deviations
 BOUND_TOL_DEG = 1e-9
 _LOG_RANGE = {"anglesw": (-9.0, math.log10(360.0))}
 _DEFAULT_LOG_RANGE = (-15.0, 6.0)
-_ITER = 48
+_ITER = 36  # 21 decades / 2**36: the threshold to ~1e-9 decades
 
 
 def _search_range(method: str) -> tuple[float, float]:
