@@ -1,0 +1,193 @@
+"""Skeletons and skeletal motion; forward kinematics vectorised over all frames.
+
+A :class:`Skeleton` is a list of joints in topological order (every parent before its children;
+``parents[j] = -1`` for a root; several roots are allowed). A :class:`Motion` holds, per frame and
+joint, the *local* rotation (scalar-first unit quaternion) and the *local* translation relative to
+the parent (the joint's ``OFFSET`` unless the file animates its position).
+
+Forward kinematics (:func:`forward_kinematics`) loops over the joints only — every operation is a
+NumPy batch over all frames — and returns world positions and world rotations of every joint (and,
+optionally, of the end sites).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mocapkit.errors import InvalidSignalError
+
+POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
+ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
+
+
+@dataclass(frozen=True)
+class Skeleton:
+    """Joint hierarchy.
+
+    Attributes
+    ----------
+    names
+        Joint names (unique).
+    parents
+        ``(J,)`` parent index, ``-1`` for roots; ``parents[j] < j``.
+    offsets
+        ``(J, 3)`` rest translation of each joint relative to its parent (file units).
+    channels
+        Per joint, the animated channels in file order (BVH names: ``Xposition``.. ``Zrotation``);
+        ``()`` for a joint without channels.
+    end_sites
+        ``(parent_joint, offset (3,))`` pairs for BVH ``End Site`` blocks (and ASF bone tips).
+    """
+
+    names: tuple[str, ...]
+    parents: np.ndarray
+    offsets: np.ndarray
+    channels: tuple[tuple[str, ...], ...]
+    end_sites: tuple[tuple[int, tuple[float, float, float]], ...] = ()
+    meta: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.parents, dtype=np.int64)
+        o = np.asarray(self.offsets, dtype=np.float64).reshape(-1, 3)
+        J = len(self.names)
+        if p.shape != (J,) or o.shape != (J, 3) or len(self.channels) != J:
+            raise InvalidSignalError(f"skeleton arrays disagree: {J} names, parents {p.shape}, offsets {o.shape}")
+        if len(set(self.names)) != J:
+            dup = sorted({n for n in self.names if self.names.count(n) > 1})
+            raise InvalidSignalError(f"duplicate joint names: {dup}")
+        for j in range(J):
+            if not (-1 <= p[j] < j):
+                raise InvalidSignalError(f"joint {self.names[j]!r}: parent index {p[j]} is not an earlier joint")
+        p.setflags(write=False)
+        o.setflags(write=False)
+        object.__setattr__(self, "parents", p)
+        object.__setattr__(self, "offsets", o)
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.names)
+
+    def index(self, name: str) -> int:
+        try:
+            return self.names.index(name)
+        except ValueError:
+            raise KeyError(f"no joint named {name!r}") from None
+
+    def children(self, j: int) -> list[int]:
+        return [k for k in range(self.n_joints) if self.parents[k] == j]
+
+    @property
+    def n_channels(self) -> int:
+        return sum(len(c) for c in self.channels)
+
+    def rotation_order(self, j: int) -> str:
+        """Intrinsic Euler order of joint ``j``'s rotation channels (e.g. ``"ZXY"``), ``""`` if none."""
+        return "".join(c[0].upper() for c in self.channels[j] if c in ROTATION_CHANNELS)
+
+    def has_position(self, j: int) -> bool:
+        return any(c in POSITION_CHANNELS for c in self.channels[j])
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Skeletal motion sampled at ``times``.
+
+    Attributes
+    ----------
+    skeleton
+        The hierarchy.
+    times
+        ``(N,)`` seconds, strictly increasing (frame ``k`` at ``k · frame_time`` for files with a rate).
+    rotations
+        ``(N, J, 4)`` local rotations, scalar-first unit quaternions.
+    translations
+        ``(N, J, 3)`` local translations (the offset for joints whose position is not animated).
+    channel_values
+        ``(N, C)`` the file's channel values as read, when the motion came from a channel-based file
+        (BVH/AMC): writers use them to reproduce the channels exactly. ``None`` otherwise.
+    """
+
+    skeleton: Skeleton
+    times: np.ndarray
+    rotations: np.ndarray
+    translations: np.ndarray
+    channel_values: np.ndarray | None = None
+    source: str = ""
+    meta: dict = field(default_factory=dict, compare=False)
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.times, dtype=np.float64)
+        r = np.asarray(self.rotations, dtype=np.float64)
+        x = np.asarray(self.translations, dtype=np.float64)
+        J = self.skeleton.n_joints
+        N = t.shape[0]
+        if r.shape != (N, J, 4) or x.shape != (N, J, 3):
+            raise InvalidSignalError(f"motion arrays: times {t.shape}, rotations {r.shape}, translations {x.shape}; J={J}")
+        if N > 1 and np.any(np.diff(t) <= 0):
+            raise InvalidSignalError("motion times must be strictly increasing")
+        object.__setattr__(self, "times", t)
+        object.__setattr__(self, "rotations", r)
+        object.__setattr__(self, "translations", x)
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.times.shape[0])
+
+    @property
+    def frame_time(self) -> float:
+        return float(self.meta.get("frame_time", (self.times[-1] - self.times[0]) / max(self.n_frames - 1, 1)))
+
+    @property
+    def rate(self) -> float:
+        return 1.0 / self.frame_time
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """``(..., 4)`` scalar-first quaternions (normalised here) to ``(..., 3, 3)`` rotation matrices."""
+    q = np.asarray(q, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    xx, yy, zz = x * x, y * y, z * z
+    xy, xz, yz = x * y, x * z, y * z
+    wx, wy, wz = w * x, w * y, w * z
+    m = np.empty(q.shape[:-1] + (3, 3))
+    m[..., 0, 0] = 1 - 2 * (yy + zz)
+    m[..., 0, 1] = 2 * (xy - wz)
+    m[..., 0, 2] = 2 * (xz + wy)
+    m[..., 1, 0] = 2 * (xy + wz)
+    m[..., 1, 1] = 1 - 2 * (xx + zz)
+    m[..., 1, 2] = 2 * (yz - wx)
+    m[..., 2, 0] = 2 * (xz - wy)
+    m[..., 2, 1] = 2 * (yz + wx)
+    m[..., 2, 2] = 1 - 2 * (xx + yy)
+    return m
+
+
+def forward_kinematics(motion: Motion, end_sites: bool = False):
+    """World positions ``(N, J, 3)`` and world rotation matrices ``(N, J, 3, 3)`` of every joint.
+
+    ``p_j = p_parent + R_parent · t_j`` and ``R_j = R_parent · r_j`` with ``t_j``, ``r_j`` the local
+    translation and rotation; roots use the identity as parent. One NumPy batch per joint over all
+    frames. With ``end_sites=True`` also returns the ``(N, E, 3)`` end-site positions.
+    """
+    sk = motion.skeleton
+    N, J = motion.n_frames, sk.n_joints
+    local = quat_to_matrix(motion.rotations)  # (N, J, 3, 3)
+    R = np.empty((N, J, 3, 3))
+    P = np.empty((N, J, 3))
+    for j in range(J):
+        p = sk.parents[j]
+        if p < 0:
+            R[:, j] = local[:, j]
+            P[:, j] = motion.translations[:, j]
+        else:
+            R[:, j] = np.matmul(R[:, p], local[:, j])
+            P[:, j] = P[:, p] + np.einsum("nab,nb->na", R[:, p], motion.translations[:, j])
+    if not end_sites:
+        return P, R
+    E = np.empty((N, len(sk.end_sites), 3))
+    for e, (j, off) in enumerate(sk.end_sites):
+        E[:, e] = P[:, j] + np.einsum("nab,b->na", R[:, j], np.asarray(off, dtype=np.float64))
+    return P, R, E
