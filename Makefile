@@ -5,10 +5,11 @@ STAMP := $(VENV)/.installed
 
 .PHONY: demo test bench sweep clean
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml Makefile
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[test]'
+	npm install --prefix $(VENV)/node gltf-validator@2.0.0-dev.3.10 --no-audit --no-fund --silent
 	touch $(STAMP)
 
 demo: $(STAMP)

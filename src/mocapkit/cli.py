@@ -9,6 +9,7 @@ from enum import Enum
 from pathlib import Path
 from typing import Annotated, Optional
 
+import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
@@ -108,8 +109,28 @@ def compress(
     max_segment_length: MaxLenOpt = None,
     rate: RateOpt = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object per signal (a list).")] = False,
+    asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
+    max_position_error: Annotated[
+        Optional[float],
+        typer.Option("--max-position-error", help="Skeletal input: every joint's world position within CM (verified)."),
+    ] = None,
+    unit_cm: Annotated[
+        Optional[float], typer.Option("--unit-cm", help="Skeletal input: centimetres per file length unit.")
+    ] = None,
 ) -> None:
-    """Compress orientation streams to segment points (CSV time,w,x,y,z)."""
+    """Compress orientation streams (IMU files, sensor folders) or whole skeletons (BVH, AMC).
+
+    IMU input: segment points as CSV time,w,x,y,z. Skeletal input: keyframes as glTF (.glb/.gltf) or
+    the decoded full-rate motion as .bvh.
+    """
+    from mocapkit.io.loaders import kind_of
+
+    if kind_of(input) == "skeletal":
+        _compress_skeletal(input, output, method, threshold, target_icr, max_position_error, max_angle,
+                           max_segment_length, rate, as_json, asf, unit_cm)
+        return
+    if max_position_error is not None or asf is not None or unit_cm is not None:
+        raise InvalidParameterError("--max-position-error, --asf and --unit-cm apply to BVH/AMC input")
     from mocapkit.io import load_signals, write_signal_csv
     from mocapkit.pla import compress_to, evaluate
 
@@ -144,6 +165,138 @@ def compress(
         print(json.dumps(records, indent=1))
     else:
         err.print(_summary_table(records, f"{method.value}: {mode} {target:g}"))
+
+
+def _compress_skeletal(input, output, method, threshold, target_icr, max_position_error, max_angle,
+                       max_segment_length, rate, as_json, asf, unit_cm) -> None:
+    from mocapkit.io.bvh import write_bvh
+    from mocapkit.io.gltf import write_gltf
+    from mocapkit.io.loaders import load_motion, unit_cm as find_unit
+    from mocapkit.pla.skeletal import compress_motion, report, verify_position_bound
+
+    if max_angle is not None:
+        raise InvalidParameterError("for skeletal input use --max-position-error CM (or --threshold / --target-icr)")
+    if sum(x is not None for x in (threshold, target_icr, max_position_error)) != 1:
+        raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-position-error")
+    if output is not None and output.suffix.lower() not in (".glb", ".gltf", ".bvh"):
+        raise InvalidParameterError(f"{output}: skeletal output is .glb, .gltf or .bvh")
+    motion = load_motion(input, asf=asf, rate=rate)
+    ucm, assumed = find_unit(motion, unit_cm)
+    bound = None if max_position_error is None else max_position_error / ucm
+    comp = compress_motion(
+        motion, method.value, threshold=threshold, target_icr=target_icr, max_position_error=bound,
+        max_segment_length=max_segment_length,
+    )
+    if bound is not None:
+        verify_position_bound(motion, comp, bound)
+    rec = {"file": str(input), **report(comp, ucm), "unit_cm_assumed": assumed}
+    if output is not None:
+        if output.suffix.lower() == ".bvh":
+            write_bvh(output, comp.decode(), precision=6)
+        else:
+            write_gltf(output, comp, unit_m=ucm / 100.0, name=input.stem)
+        rec["output"] = str(output)
+        rec["file_bytes"] = output.stat().st_size
+    if as_json:
+        print(json.dumps(rec, indent=1))
+    else:
+        tab = Table(title=f"{input.name}: {rec['method']} ({rec['mode']})")
+        tab.add_column("quantity")
+        tab.add_column("value", justify="right")
+        for k in ("n_frames", "n_joints", "keyframes", "icr", "max_position_error_cm", "mean_position_error_cm",
+                  "aad_deg", "max_deg", "bytes_raw", "bytes_out", "ratio"):
+            v = rec[k]
+            tab.add_row(k, f"{v:.4g}" if isinstance(v, float) else str(v))
+        err.print(tab)
+        if assumed:
+            err.print("length unit assumed to be 1 cm; give --unit-cm for other units")
+
+
+@app.command()
+def info(
+    input: Annotated[Path, typer.Argument(help="BVH, AMC, C3D, Qualisys TSV, IMU file or sensor folder.")],
+    asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
+    rate: RateOpt = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+) -> None:
+    """Describe a motion file: joints, frames, rate, duration, channels, markers."""
+    from mocapkit.io.loaders import kind_of, load_motion
+
+    kind = kind_of(input)
+    if kind == "skeletal":
+        m = load_motion(input, asf=asf, rate=rate)
+        sk = m.skeleton
+        rec = {
+            "file": str(input), "kind": "skeletal", "frames": m.n_frames, "rate_hz": m.rate,
+            "duration_s": m.n_frames * m.frame_time, "joints": sk.n_joints, "channels": sk.n_channels,
+            "end_sites": len(sk.end_sites), "roots": [sk.names[j] for j in range(sk.n_joints) if sk.parents[j] < 0],
+            "joint_names": list(sk.names),
+            "joint_channels": {sk.names[j]: list(sk.channels[j]) for j in range(sk.n_joints)},
+            "warnings": m.meta.get("warnings", []),
+        }
+    elif kind == "markers":
+        from mocapkit.io.markerfiles import load_markers
+
+        mk = load_markers(input)
+        rec = {
+            "file": str(input), "kind": "markers", "frames": int(mk.times.shape[0]), "rate_hz": mk.rate,
+            "duration_s": float(mk.times.shape[0] / mk.rate), "markers": len(mk.labels), "labels": list(mk.labels),
+            "units": mk.units, "missing_fraction": float(np.isnan(mk.positions[..., 0]).mean()),
+            "analog_channels": 0 if not mk.analog else len(mk.analog.get("labels", [])),
+        }
+    else:
+        from mocapkit.io import load_signals
+
+        sigs = load_signals(input, rate=rate)
+        rec = {
+            "file": str(input), "kind": "imu", "signals": {
+                n: {"samples": len(s), "duration_s": s.duration, "mean_rate_hz": s.mean_rate,
+                    "format": s.meta.get("format"), "largest_gap_s": float(np.diff(s.times).max()) if len(s) > 1 else 0.0}
+                for n, s in sigs.items()
+            },
+        }
+    if as_json:
+        print(json.dumps(rec, indent=1))
+    else:
+        tab = Table(title=str(input))
+        tab.add_column("field")
+        tab.add_column("value")
+        for k, v in rec.items():
+            if k in ("joint_names", "joint_channels", "labels"):
+                v = f"{len(v)} entries (see --json)"
+            tab.add_row(k, str(v))
+        err.print(tab)
+
+
+@app.command()
+def convert(
+    input: Annotated[Path, typer.Argument(help="AMC (+ --asf) or BVH; C3D or Qualisys TSV.")],
+    output: Annotated[Path, typer.Argument(help="BVH for skeletal input; CSV for markers.")],
+    asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
+    precision: Annotated[int, typer.Option("--precision", help="Decimals written to BVH.")] = 6,
+) -> None:
+    """Convert AMC (with its ASF) to BVH, BVH to BVH, and markers (C3D, TSV) to CSV."""
+    from mocapkit.io.loaders import kind_of, load_motion
+
+    kind = kind_of(input)
+    if kind == "skeletal":
+        if output.suffix.lower() != ".bvh":
+            raise InvalidParameterError(f"{output}: skeletal motion converts to .bvh")
+        from mocapkit.io.bvh import write_bvh
+
+        m = load_motion(input, asf=asf)
+        write_bvh(output, m, precision=precision)
+        err.print(f"{input} -> {output}: {m.n_frames} frames, {m.skeleton.n_joints} joints")
+    elif kind == "markers":
+        if output.suffix.lower() != ".csv":
+            raise InvalidParameterError(f"{output}: markers convert to .csv")
+        from mocapkit.io.markerfiles import load_markers
+
+        mk = load_markers(input)
+        mk.to_csv(output)
+        err.print(f"{input} -> {output}: {mk.times.shape[0]} frames, {len(mk.labels)} markers")
+    else:
+        raise InvalidParameterError(f"{input}: convert reads BVH, AMC, C3D or TSV files")
 
 
 @app.command()

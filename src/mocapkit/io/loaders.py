@@ -1,0 +1,64 @@
+"""What kind of file is this, and load it: skeletal motion (BVH, ASF/AMC), markers (C3D, Qualisys
+TSV) or IMU orientation streams (CSV/text exports)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from mocapkit.errors import MocapFormatError
+from mocapkit.skeleton import Motion
+
+SKELETAL_SUFFIXES = (".bvh", ".amc")
+MARKER_SUFFIXES = (".c3d", ".tsv")
+
+
+def kind_of(path: str | Path) -> str:
+    """``"skeletal"``, ``"markers"`` or ``"imu"`` (folders and everything else are IMU data)."""
+    p = Path(path)
+    if p.is_file() or not p.exists():
+        s = p.suffix.lower()
+        if s in SKELETAL_SUFFIXES:
+            return "skeletal"
+        if s in MARKER_SUFFIXES:
+            return "markers"
+    return "imu"
+
+
+def find_asf(amc: Path) -> Path | None:
+    """CMU naming: ``86_01.amc`` goes with ``86.asf`` in the same folder."""
+    cand = amc.with_name(amc.stem.split("_")[0] + ".asf")
+    return cand if cand.is_file() else None
+
+
+def load_motion(path: str | Path, asf: str | Path | None = None, rate: float | None = None, strict: bool = True) -> Motion:
+    """Read a BVH file, or an AMC file with its ASF skeleton (``asf`` or found by CMU naming)."""
+    p = Path(path)
+    if not p.exists():
+        raise MocapFormatError(str(p), None, "no such file")
+    s = p.suffix.lower()
+    if s == ".bvh":
+        from mocapkit.io.bvh import read_bvh
+
+        if rate is not None:
+            raise MocapFormatError(str(p), None, "a BVH file has its own Frame Time; do not give --rate")
+        return read_bvh(p, strict=strict)
+    if s == ".amc":
+        from mocapkit.io.amc import read_amc, read_asf
+
+        a = Path(asf) if asf is not None else find_asf(p)
+        if a is None:
+            raise MocapFormatError(str(p), None, f"no skeleton: give --asf FILE.asf (looked for {p.stem.split('_')[0]}.asf beside it)")
+        if not a.exists():
+            raise MocapFormatError(str(a), None, "no such file")
+        return read_amc(p, read_asf(a), rate=120.0 if rate is None else rate)
+    raise MocapFormatError(str(p), None, f"not a skeletal motion file (expected {', '.join(SKELETAL_SUFFIXES)})")
+
+
+def unit_cm(motion: Motion, given: float | None) -> tuple[float, bool]:
+    """Centimetres per file length unit: the user's value, else the file's (ASF), else 1 (assumed)."""
+    if given is not None:
+        return float(given), False
+    u = motion.skeleton.meta.get("length_unit_cm")
+    if u is not None:
+        return float(u), False
+    return 1.0, True

@@ -1,0 +1,302 @@
+"""Whole-skeleton compression: every joint's local rotation is a quaternion stream, every animated
+local translation a 3-D vector stream, each compressed with the PLA methods.
+
+Error in the user's terms (``max_position_error``): every joint's *world-space* position in every
+frame stays within the bound. A rotation error ``δ`` at joint ``i`` moves every descendant ``k`` by at
+most ``2·sin(δ/2)·|p_k − p_i|``, and errors of a chain add up (triangle inequality, distances being
+kept by rotations), so with ``reach_i`` = the largest distance from joint ``i`` to any of its
+descendants or end sites (over all frames, from forward kinematics) and ``H`` the largest number of
+animated joints on a root-to-leaf chain, budgets of ``E/H`` per joint — angle
+``2·asin(E/(2·H·reach_i))`` for its rotation (encoded with the angle-bounded SW, which guarantees it)
+and ``E/H`` for its translation (Swing Filter with ``ε = E/(H·√3)``) — guarantee ``E`` everywhere. That
+allocation is safe but pessimistic; the budgets are therefore scaled up by the largest factor
+(bisection) for which forward kinematics of the decoded motion still keeps every joint within
+``E`` — the same check that is run on the final result (like ACL's object-space error).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mocapkit.errors import BoundViolationError, InvalidParameterError
+from mocapkit.motion import Signal
+from mocapkit.pla.base import Compressed, check_method, compress
+from mocapkit.pla.reconstruct import reconstruct
+from mocapkit.skeleton import Motion, forward_kinematics
+
+BOUND_TOL = 1e-9  # relative slack when checking the position bound (float rounding of two FK runs)
+
+
+@dataclass
+class SkeletalCompressed:
+    """Keyframes of every animated track of a motion."""
+
+    motion: Motion
+    method: str
+    rotations: dict[int, Compressed] = field(default_factory=dict)  # joint -> quaternion track
+    translations: dict[int, Compressed] = field(default_factory=dict)  # joint -> vector track
+    info: dict = field(default_factory=dict)
+
+    @property
+    def n_keyframes(self) -> int:
+        return sum(c.n_points for c in self.rotations.values()) + sum(c.n_points for c in self.translations.values())
+
+    @property
+    def n_samples(self) -> int:
+        return sum(c.n_samples for c in self.rotations.values()) + sum(c.n_samples for c in self.translations.values())
+
+    @property
+    def icr(self) -> float:
+        """Keyframes / original samples over all tracks (Eq. 1 of the fastSW paper, pooled)."""
+        return self.n_keyframes / max(self.n_samples, 1)
+
+    def bytes_raw(self) -> int:
+        """Every frame of every track as float32: 16 bytes a rotation, 12 a translation."""
+        n = self.motion.n_frames
+        return n * (16 * len(self.rotations) + 12 * len(self.translations))
+
+    def bytes_out(self) -> int:
+        """Keyframes as float32 time + value (what the glTF buffer holds, without padding)."""
+        return sum(20 * c.n_points for c in self.rotations.values()) + sum(16 * c.n_points for c in self.translations.values())
+
+    def decode(self) -> Motion:
+        """Full-rate motion (SLERP / linear between keyframes) at the original frame times."""
+        m = self.motion
+        rot = m.rotations.copy()
+        trans = m.translations.copy()
+        for j, c in self.rotations.items():
+            rot[:, j] = reconstruct(c, m.times)
+        for j, c in self.translations.items():
+            trans[:, j] = reconstruct(c, m.times)
+        return Motion(m.skeleton, m.times, rot, trans, channel_values=None, source=m.source, meta=dict(m.meta))
+
+
+def animated_tracks(motion: Motion) -> tuple[list[int], list[int]]:
+    """Joints whose rotation / translation varies (or is animated by the file's channels)."""
+    sk = motion.skeleton
+    rot = [j for j in range(sk.n_joints) if sk.rotation_order(j) or np.ptp(motion.rotations[:, j], axis=0).max() > 0]
+    tr = [j for j in range(sk.n_joints) if sk.has_position(j)]
+    return rot, tr
+
+
+def position_errors(original: Motion, decoded: Motion) -> np.ndarray:
+    """``(N, J)`` world-space distance of every joint in every frame (file units)."""
+    P0, _ = forward_kinematics(original)
+    P1, _ = forward_kinematics(decoded)
+    return np.linalg.norm(P1 - P0, axis=-1)
+
+
+def _reach(motion: Motion) -> np.ndarray:
+    """Per joint, the largest distance (over frames) to any descendant joint or end site."""
+    sk = motion.skeleton
+    P, _, E = forward_kinematics(motion, end_sites=True)
+    reach = np.zeros(sk.n_joints)
+    for k in range(sk.n_joints):
+        i = sk.parents[k]
+        while i >= 0:
+            reach[i] = max(reach[i], float(np.linalg.norm(P[:, k] - P[:, i], axis=-1).max()))
+            i = sk.parents[i]
+    for e, (j, _) in enumerate(sk.end_sites):
+        i = j
+        while i >= 0:
+            reach[i] = max(reach[i], float(np.linalg.norm(E[:, e] - P[:, i], axis=-1).max()))
+            i = sk.parents[i]
+    return reach
+
+
+def _chain_depth(motion: Motion, rot: list[int], tr: list[int]) -> int:
+    sk = motion.skeleton
+    animated = set(rot) | set(tr)
+    best = 1
+    for k in range(sk.n_joints):
+        c = 0
+        i = k
+        while i >= 0:
+            c += (i in rot) + (i in tr)
+            i = sk.parents[i]
+        best = max(best, c)
+    return best if animated else 1
+
+
+def _signals(motion: Motion, rot: list[int], tr: list[int]):
+    rs = {j: Signal(motion.times, motion.rotations[:, j], "quaternion", name=motion.skeleton.names[j]) for j in rot}
+    ts = {j: Signal(motion.times, motion.translations[:, j], "vector", name=motion.skeleton.names[j]) for j in tr}
+    return rs, ts
+
+
+def compress_motion(
+    motion: Motion,
+    method: str = "fastsw",
+    *,
+    threshold: float | None = None,
+    target_icr: float | None = None,
+    max_position_error: float | None = None,
+    max_segment_length: int | None = None,
+) -> SkeletalCompressed:
+    """Compress every track of ``motion``.
+
+    Parameters
+    ----------
+    method
+        PLA method for the rotation tracks; translation tracks use the matching rule of
+        :func:`_translation_rule`. With ``max_position_error`` rotations use ``anglesw`` (its bound
+        is an angle) and translations the Swing Filter, whatever is asked; the report says so.
+    threshold
+        The method's own threshold, the same for every rotation track.
+    target_icr
+        Pooled ICR over all tracks; one threshold found by bisection.
+    max_position_error
+        Bound on every joint's world position error in every frame, in file units (see module notes).
+    """
+    method = check_method(method)
+    given = [x is not None for x in (threshold, target_icr, max_position_error)]
+    if sum(given) != 1:
+        raise InvalidParameterError("give exactly one of threshold, target ICR, max position error")
+    rot, tr = animated_tracks(motion)
+    rs, ts = _signals(motion, rot, tr)
+    out = SkeletalCompressed(motion, method)
+    if threshold is not None:
+        size = _size(motion)
+        for j, sg in rs.items():
+            out.rotations[j] = compress(sg, method, threshold, max_segment_length)
+        tm, tt = _translation_rule(method, threshold, size)
+        for j, sg in ts.items():
+            out.translations[j] = compress(sg, tm, tt, max_segment_length)
+        out.info = {"mode": "threshold", "threshold": threshold, "translation_method": tm, "translation_threshold": tt}
+        return out
+    if target_icr is not None:
+        return _to_icr(motion, method, target_icr, rs, ts, max_segment_length)
+    return _to_position_bound(motion, float(max_position_error), rs, ts, max_segment_length)
+
+
+def _size(motion: Motion) -> float:
+    """Characteristic length of the skeleton: the largest reach from a root (file units)."""
+    r = _reach(motion)
+    roots = [j for j in range(motion.skeleton.n_joints) if motion.skeleton.parents[j] < 0]
+    return max((float(r[j]) for j in roots), default=1.0) or 1.0
+
+
+def _translation_rule(method: str, th: float, size: float) -> tuple[str, float]:
+    """The translation tracks' method and threshold matching a rotation threshold: a translation
+    error of ``δ·size`` weighs like a rotation error of ``δ`` radians seen at the skeleton's size, so
+    SSR thresholds scale by ``size²``, the Swing Filter's ε by ``size``, and an angle (anglesw, which
+    needs quaternions) becomes a Swing Filter ε of ``size·θ``."""
+    if method == "anglesw":
+        return "swing", size * math.radians(th)
+    if method == "swing":
+        return "swing", size * th
+    return method, size * size * th
+
+
+def _to_icr(motion, method, target, rs, ts, maxlen) -> SkeletalCompressed:
+    """One threshold for every track (translations mapped by :func:`_translation_rule`), found by
+    bisection on the pooled ICR."""
+    if not (0.0 < target <= 1.0):
+        raise InvalidParameterError(f"target ICR must be in (0, 1], got {target!r}")
+    lo, hi = (-9.0, math.log10(360.0)) if method == "anglesw" else (-15.0, 6.0)
+    size = _size(motion)
+
+    def run(lg: float) -> SkeletalCompressed:
+        th = 10.0**lg
+        out = SkeletalCompressed(motion, method)
+        for j, sg in rs.items():
+            out.rotations[j] = compress(sg, method, th, maxlen)
+        tm, tt = _translation_rule(method, th, size)
+        for j, sg in ts.items():
+            out.translations[j] = compress(sg, tm, tt, maxlen)
+        out.info = {"mode": "target_icr", "target": target, "threshold": th,
+                    "translation_method": tm, "translation_threshold": tt}
+        return out
+
+    best = run(hi)
+    if best.icr > target:
+        raise InvalidParameterError(f"ICR {target:g} is out of reach: the loosest threshold gives {best.icr:.4g}")
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        c = run(mid)
+        if c.icr <= target:
+            hi, best = mid, c
+        else:
+            lo = mid
+    return best
+
+
+def _to_position_bound(motion, E, rs, ts, maxlen) -> SkeletalCompressed:
+    if not (math.isfinite(E) and E > 0):
+        raise InvalidParameterError(f"max position error must be a positive number, got {E!r}")
+    reach = _reach(motion)
+    H = _chain_depth(motion, list(rs), list(ts))
+
+    def run(scale: float) -> tuple[SkeletalCompressed, float]:
+        out = SkeletalCompressed(motion, "anglesw")
+        share = scale * E / H
+        for j, s in rs.items():
+            if reach[j] <= 0:  # nothing hangs below this joint: its rotation moves no position
+                ang = 180.0
+            else:
+                ang = math.degrees(2.0 * math.asin(min(1.0, share / (2.0 * reach[j]))))
+            out.rotations[j] = compress(s, "anglesw", ang, maxlen)
+        for j, s in ts.items():
+            out.translations[j] = compress(s, "swing", share / math.sqrt(3.0), maxlen)
+        err = float(position_errors(motion, out.decode()).max())
+        out.info = {"mode": "max_position_error", "bound": E, "budget_scale": scale, "chain_depth": H}
+        return out, err
+
+    best, err = run(1.0)
+    if err > E * (1 + BOUND_TOL):  # cannot happen if the analysis holds: report, never hide
+        raise BoundViolationError(f"the safe allocation gives {err:.6g} > {E:g}")
+    lo, hi = 0.0, math.log2(H) + 1.0  # scale = 2**x, x in [0, log2 H + 1]
+    for _ in range(14):
+        mid = 0.5 * (lo + hi)
+        c, e = run(2.0**mid)
+        if e <= E * (1 + BOUND_TOL):
+            lo = mid
+            if c.n_keyframes <= best.n_keyframes:
+                best, err = c, e
+        else:
+            hi = mid
+    best.info["max_position_error"] = err
+    return best
+
+
+def verify_position_bound(motion: Motion, comp: SkeletalCompressed, bound: float) -> float:
+    """Independent check by forward kinematics of the decoded motion; returns the max error."""
+    err = float(position_errors(motion, comp.decode()).max())
+    if err > bound * (1 + BOUND_TOL):
+        raise BoundViolationError(f"world position error {err:.6g} exceeds the bound {bound:g}")
+    return err
+
+
+def report(comp: SkeletalCompressed, unit_cm: float | None = None) -> dict:
+    """The numbers of a skeletal compression (positions in cm when ``unit_cm`` is known)."""
+    from mocapkit.quat import angular_distance
+
+    m = comp.motion
+    dec = comp.decode()
+    perr = position_errors(m, dec)
+    k = unit_cm if unit_cm is not None else float("nan")
+    ang = [angular_distance(m.rotations[:, j], dec.rotations[:, j], degrees=True) for j in comp.rotations]
+    ang = np.concatenate(ang) if ang else np.zeros(1)
+    return {
+        "method": comp.method,
+        **{k2: v for k2, v in comp.info.items() if k2 != "max_position_error"},
+        "n_frames": m.n_frames,
+        "n_joints": m.skeleton.n_joints,
+        "rotation_tracks": len(comp.rotations),
+        "translation_tracks": len(comp.translations),
+        "keyframes": comp.n_keyframes,
+        "icr": comp.icr,
+        "max_position_error": float(perr.max()),
+        "mean_position_error": float(perr.mean()),
+        "max_position_error_cm": float(perr.max()) * k,
+        "mean_position_error_cm": float(perr.mean()) * k,
+        "unit_cm": unit_cm,
+        "aad_deg": float(ang.mean()),
+        "max_deg": float(ang.max()),
+        "bytes_raw": comp.bytes_raw(),
+        "bytes_out": comp.bytes_out(),
+        "ratio": comp.bytes_raw() / max(comp.bytes_out(), 1),
+    }

@@ -1,0 +1,258 @@
+"""BVH reading/writing, forward kinematics, whole-skeleton compression and glTF export."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pygltflib
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from mocapkit.errors import MocapFormatError
+from mocapkit.io.bvh import parse_bvh, read_bvh, write_bvh
+from mocapkit.io.gltf import write_gltf
+from mocapkit.pla.skeletal import compress_motion, position_errors
+from mocapkit.skeleton import forward_kinematics
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def naive_fk(motion):
+    """Independent per-frame FK straight from the BVH channel values (scipy matrices, Python loops)."""
+    sk = motion.skeleton
+    N, J = motion.channel_values.shape[0], sk.n_joints
+    out = np.zeros((N, J, 3))
+    for f in range(N):
+        col = 0
+        Rw = [None] * J
+        for j in range(J):
+            t = np.array(sk.offsets[j], dtype=float)
+            order, ang = "", []
+            for c in sk.channels[j]:
+                v = motion.channel_values[f, col]
+                col += 1
+                if c.endswith("position"):
+                    t["XYZ".index(c[0])] = v
+                else:
+                    order += c[0]
+                    ang.append(v)
+            r = Rotation.from_euler(order, ang, degrees=True).as_matrix() if order else np.eye(3)
+            p = sk.parents[j]
+            if p < 0:
+                Rw[j], out[f, j] = r, t
+            else:
+                Rw[j] = Rw[p] @ r
+                out[f, j] = out[f, p] + Rw[p] @ t
+    return out
+
+
+def bvh_files(tests_data):
+    return sorted((tests_data / "bvh").glob("*.bvh"))
+
+
+@pytest.fixture(scope="module")
+def shared_bvh(shared_data):
+    return sorted((shared_data / "bvh").glob("*.bvh"))
+
+
+def test_fk_matches_naive_on_excerpts(tests_data):
+    for f in bvh_files(tests_data):
+        m = read_bvh(f)
+        P, _ = forward_kinematics(m)
+        assert np.abs(P - naive_fk(m)).max() < 1e-9, f.name
+
+
+def test_fk_matches_naive_on_shared_files(shared_bvh):
+    assert len(shared_bvh) == 2
+    for f in shared_bvh:
+        m = read_bvh(f)
+        sub = type(m)(m.skeleton, m.times[::25], m.rotations[::25], m.translations[::25], m.channel_values[::25])
+        P, _ = forward_kinematics(sub)
+        assert np.abs(P - naive_fk(sub)).max() < 1e-9, f.name
+
+
+def test_shared_files_structure(shared_bvh):
+    pn = read_bvh([f for f in shared_bvh if "perception" in f.name][0])
+    assert pn.skeleton.n_joints == 59 and all(len(c) == 6 for c in pn.skeleton.channels)
+    assert pn.n_frames == 733 and pn.rate == pytest.approx(125.0, rel=1e-3)
+
+
+def test_round_trip_exact(tmp_path, shared_data):
+    for f in sorted((shared_data / "bvh").glob("*.bvh")):
+        m = read_bvh(f)
+        write_bvh(tmp_path / "a.bvh", m, precision=6)
+        m2 = read_bvh(tmp_path / "a.bvh")
+        assert np.array_equal(m2.channel_values, m.channel_values), f.name  # files have <= 6 decimals
+        assert np.array_equal(m2.skeleton.offsets, m.skeleton.offsets)
+        assert m2.skeleton.names == m.skeleton.names and m2.skeleton.channels == m.skeleton.channels
+        # from rotations (no channel values): same world positions
+        write_bvh(tmp_path / "b.bvh", m, precision=9, use_channel_values=False)
+        P3, _ = forward_kinematics(read_bvh(tmp_path / "b.bvh"))
+        assert np.abs(P3 - forward_kinematics(m)[0]).max() < 1e-5
+
+
+TRICKY = """HIERARCHY\r
+ROOT mixamorig:Hips{\r
+\tOFFSET 1 2 3\r
+\tCHANNELS 6 Xposition Yposition Zposition Yrotation Xrotation Zrotation\r
+\tJOINT left.leg\r
+\t{\r
+\t\tOFFSET 0 -10 0\r
+\t\tCHANNELS 3 Xrotation Zrotation Yrotation\r
+\t\tEnd Site\r
+\t\t{\r
+\t\t\tOFFSET 0 -5 0\r
+\t\t}\r
+\t}\r
+}\r
+ROOT Prop\r
+{\r
+\tOFFSET 0 0 0\r
+\tCHANNELS 3 Zrotation Xrotation Yrotation\r
+}\r
+MOTION\r
+Frames: 2\r
+Frame Time: 0.01\r
+0.0-7.5 1 10 20 30 1 2 3 4 5 6\r
+1 2 3 4 5 6 7 8 9 10 11 12"""
+
+
+def test_tricky_file():
+    m = parse_bvh(TRICKY, "tricky.bvh")
+    sk = m.skeleton
+    assert sk.names == ("mixamorig:Hips", "left.leg", "Prop")
+    assert list(sk.parents) == [-1, 0, -1]
+    assert sk.rotation_order(0) == "YXZ" and sk.rotation_order(1) == "XZY"
+    assert m.channel_values[0, :2].tolist() == [0.0, -7.5]  # glued numbers split
+    assert np.allclose(m.translations[0, 0], [0.0, -7.5, 1.0])  # positions replace the offset
+    assert np.abs(forward_kinematics(m)[0] - naive_fk(m)).max() < 1e-12
+
+
+@pytest.mark.parametrize(
+    "mutate,needle",
+    [
+        (lambda s: s.replace("Frames: 2", "Frames: 3"), "Frames: 3 but 2"),
+        (lambda s: s.replace("12", "12 13"), "expected 12 channel values"),
+        (lambda s: s.replace("Zrotation Xrotation Yrotation", "Zrotation Xrotation Wrotation"), "unknown channel"),
+        (lambda s: s.replace("OFFSET 0 -10 0", "OFFSET 0 x 0"), "not a number"),
+        (lambda s: s.replace("Frame Time: 0.01", "Frame Time: 0"), "Frame Time"),
+        (lambda s: s.replace("1 2 3 4 5 6 7 8 9 10 11 12", "1 2 3 4 5 6 7 8 9 10 11 abc"), "'abc'"),
+        (lambda s: s.split("MOTION")[0], "no MOTION"),
+        (lambda s: "", "empty"),
+        (lambda s: s.replace("left.leg", "Prop"), "used twice"),
+    ],
+)
+def test_rejections(mutate, needle):
+    with pytest.raises(MocapFormatError) as e:
+        parse_bvh(mutate(TRICKY), "bad.bvh")
+    assert "bad.bvh" in str(e.value) and needle in str(e.value)
+
+
+def test_frame_count_mismatch_non_strict():
+    m = parse_bvh(TRICKY.replace("Frames: 2", "Frames: 5"), "x.bvh", strict=False)
+    assert m.n_frames == 2 and "Frames: 5 but 2" in m.meta["warnings"][0]
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_fuzz_bvh_only_format_errors(tests_data, data):
+    text = (tests_data / "bvh" / "walk-meredith-60.bvh").read_text()
+    lines = text.split("\n")
+    op = data.draw(st.sampled_from(["del", "dup", "tok", "trunc", "byte"]))
+    i = data.draw(st.integers(0, len(lines) - 1))
+    if op == "del":
+        del lines[i]
+    elif op == "dup":
+        lines.insert(i, lines[i])
+    elif op == "tok":
+        toks = lines[i].split() or [""]
+        k = data.draw(st.integers(0, len(toks) - 1))
+        toks[k] = data.draw(st.sampled_from(["{", "}", "nan", "-", "1e999", "JOINT", "End", "", "0.0.0", "CHANNELS"]))
+        lines[i] = " ".join(toks)
+    elif op == "trunc":
+        lines = lines[:i]
+    else:
+        s = lines[i]
+        k = data.draw(st.integers(0, max(len(s) - 1, 0)))
+        lines[i] = s[:k] + data.draw(st.characters(blacklist_categories=("Cs",))) + s[k + 1:]
+    try:
+        parse_bvh("\n".join(lines), "fuzz.bvh")
+    except MocapFormatError:
+        pass
+
+
+@pytest.mark.parametrize("cm", [0.5, 2.0])
+def test_max_position_error_bound_by_independent_fk(tests_data, tmp_path, cm):
+    for f in bvh_files(tests_data):
+        m = read_bvh(f)
+        comp = compress_motion(m, "fastsw", max_position_error=cm)
+        dec = comp.decode()
+        write_bvh(tmp_path / "dec.bvh", dec, precision=10, use_channel_values=False)
+        back = read_bvh(tmp_path / "dec.bvh")
+        err = np.linalg.norm(naive_fk(back) - naive_fk(m), axis=-1)
+        assert err.max() <= cm * (1 + 1e-6), (f.name, err.max())
+        assert comp.n_keyframes < 0.5 * comp.n_samples  # and it does compress
+
+
+def test_max_position_error_on_shared_files(shared_bvh):
+    for f in shared_bvh:
+        m = read_bvh(f)
+        comp = compress_motion(m, "fastsw", max_position_error=1.0)
+        assert position_errors(m, comp.decode()).max() <= 1.0 * (1 + 1e-9)
+
+
+def _validator():
+    node = shutil.which("node")
+    mods = ROOT / ".venv" / "node" / "node_modules"
+    if node is None:
+        pytest.skip("node is not installed")
+    if not (mods / "gltf-validator").is_dir():
+        pytest.fail(f"gltf-validator missing in {mods}: `make test` installs it")
+    return node, mods
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".gltf"])
+def test_gltf_valid_and_keyframes(tests_data, tmp_path, suffix):
+    node, mods = _validator()
+    m = read_bvh(tests_data / "bvh" / "perception-neuron-freya-30.bvh")
+    comp = compress_motion(m, "cplr", target_icr=0.2)
+    out = write_gltf(tmp_path / f"pn{suffix}", comp)
+    r = subprocess.run([node, str(ROOT / "tools" / "validate_gltf.mjs"), str(out)], capture_output=True, text=True,
+                       env={**os.environ, "NODE_PATH": str(mods)}, timeout=120)
+    assert r.returncode == 0, r.stderr
+    rep = json.loads(r.stdout.strip().splitlines()[-1])
+    assert rep["numErrors"] == 0, rep["messages"]
+    g = pygltflib.GLTF2().load(str(out))
+    anim = g.animations[0]
+    counts = {}
+    for ch in anim.channels:
+        counts[(ch.target.node, ch.target.path)] = g.accessors[anim.samplers[ch.sampler].input].count
+    for j, c in comp.rotations.items():
+        assert counts[(j, "rotation")] == c.n_points
+    for j, c in comp.translations.items():
+        assert counts[(j, "translation")] == c.n_points
+    assert len(counts) == len(comp.rotations) + len(comp.translations)
+
+
+def test_cli_skeletal_compress_json(tests_data, tmp_path):
+    f = tests_data / "bvh" / "walk-meredith-60.bvh"
+    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "compress", str(f), "-o", str(tmp_path / "w.glb"),
+                        "--max-position-error", "1", "--unit-cm", "2.54", "--json"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    rec = json.loads(r.stdout)
+    for k in ("n_frames", "n_joints", "icr", "keyframes", "max_position_error_cm", "mean_position_error_cm",
+              "aad_deg", "max_deg", "bytes_raw", "bytes_out", "ratio"):
+        assert k in rec
+    assert rec["max_position_error_cm"] <= 1.0 * (1 + 1e-9) and rec["n_frames"] == 60
+    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "compress", str(f), "-o", str(tmp_path / "w.bvh"),
+                        "--target-icr", "0.2"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert read_bvh(tmp_path / "w.bvh").n_frames == 60
