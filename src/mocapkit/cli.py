@@ -386,10 +386,21 @@ def sweep(
     n_thresholds: Annotated[int, typer.Option("--thresholds", help="Thresholds: 0 plus N-1 log-spaced in 1e-6..1e3.")] = 205,
     max_segment_length: Annotated[int, typer.Option("--max-segment-length")] = 1000,
     rate: RateOpt = None,
+    asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for AMC inputs.")] = None,
+    unit_cm: Annotated[Optional[list[str]], typer.Option("--unit-cm", help="NAME=CM per file (BVH has no unit).")] = None,
 ) -> None:
-    """The fastSW paper's experiments: 4 methods x 205 thresholds on every sensor; CSV + figures."""
+    """The fastSW paper's experiments: 4 methods x 205 thresholds on every sensor; CSV + figures.
+
+    Skeletal inputs (BVH, AMC with --asf or CMU naming): ICR vs world-position error per method,
+    the guaranteed-error mode, and a Figure-5-like PNG of stick figures (skeletal.csv, fig5_*.png).
+    """
     from mocapkit.evaluation.sweep import run_sweep, summarise, write_outputs
     from mocapkit.io import load_signals
+    from mocapkit.io.loaders import kind_of
+
+    if all(kind_of(p) == "skeletal" for p in inputs):
+        _sweep_skeletal(inputs, out, asf, unit_cm)
+        return
 
     signals = {}
     for p in inputs:
@@ -405,6 +416,31 @@ def sweep(
     err.print(summarise(rows))
     for p in paths:
         err.print(f"wrote {p}")
+
+
+def _sweep_skeletal(inputs, out: Path, asf, unit_cm) -> None:
+    from mocapkit.evaluation.skeletal import evaluate_motion, stick_figure_png, summary_table, write_rows
+    from mocapkit.io.loaders import load_motion, unit_cm as find_unit
+
+    units = {}
+    for item in unit_cm or []:
+        name, _, v = item.partition("=")
+        try:
+            units[name] = float(v)
+        except ValueError:
+            raise InvalidParameterError(f"--unit-cm expects NAME=CM, got {item!r}") from None
+    out.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for p in inputs:
+        m = load_motion(p, asf=asf)
+        u, assumed = find_unit(m, units.get(p.stem))
+        err.print(f"  {p.name}: {m.n_frames} frames, {m.skeleton.n_joints} joints, {u:g} cm/unit"
+                  + (" (assumed)" if assumed else ""))
+        rows += evaluate_motion(p.stem, m, u)
+        stick_figure_png(m, out / f"fig5_{p.stem}.png")
+    write_rows(rows, out / "skeletal.csv")
+    err.print(summary_table(rows))
+    err.print(f"wrote {out / 'skeletal.csv'} and fig5_*.png")
 
 
 @app.command()
