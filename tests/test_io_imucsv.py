@@ -5,7 +5,6 @@ from __future__ import annotations
 import csv
 import os
 import stat
-import time
 from pathlib import Path
 
 import numpy as np
@@ -450,9 +449,14 @@ def test_folder_of_files(tests_data: Path, tmp_path: Path) -> None:
     sigs = read_sensor_folder(tmp_path)
     assert list(sigs) == ["a", "b"]
     assert sigs["a"].name == "a" and sigs["b"].meta["format"] == "ngimu"
-    # a sensor file that is not a quaternion format is an error in file-per-sensor mode
+    # a file that is not a quaternion format (like x-io's Inertial.csv) is not a sensor: it is
+    # skipped and named in meta, never dropped silently
     _write(tmp_path / "c.csv", "foo,bar\n1,2\n")
-    with pytest.raises(MocapFormatError, match=r"c\.csv:1: unrecognised header"):
+    sigs = read_sensor_folder(tmp_path)
+    assert list(sigs) == ["a", "b"] and sigs["a"].meta["skipped_files"] == ["c.csv"]
+    # a quaternion file with bad data is still an error
+    _write(tmp_path / "d.csv", "time,w,x,y,z\n0,1,0,0,0\n0,1,0,0,0\n")
+    with pytest.raises(MocapFormatError, match=r"d\.csv:3"):
         read_sensor_folder(tmp_path)
 
 
@@ -580,15 +584,12 @@ def test_atomic_write_failure_keeps_old_file(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------------
 
 
-def test_parse_speed() -> None:
+def test_parse_large_file() -> None:
     n = 100_000
     rows = "".join(f"{1_000_000 + 20_000 * i},0.5,0.5,0.5,{0.5 + i * 1e-7:.7f}\n" for i in range(n))
     text = "Timestamp (us),W,X,Y,Z\n" + rows
-    start = time.perf_counter()
-    sig = read_imu_text(text, "big.csv")
-    elapsed = time.perf_counter() - start
+    sig = read_imu_text(text, "big.csv")  # speed is measured in benchmarks, never asserted in tests
     assert len(sig) == n and sig.times[-1] == (1_000_000 + 20_000 * (n - 1)) / 1e6
-    assert elapsed < 1.5, f"{n} rows took {elapsed:.2f} s"
 
 
 _BASES = {

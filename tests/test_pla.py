@@ -71,7 +71,8 @@ def test_target_icr_is_met_and_tight(pelvis, method):
     assert comp.icr <= target
     # the bisection stops at a boundary: a threshold 1 % smaller gives more points than allowed
     smaller = compress(pelvis, method, comp.threshold * 0.99)
-    assert smaller.icr > target or smaller.n_points >= comp.n_points
+    assert smaller.icr > target
+    assert comp.icr > 0.8 * target  # not a trivially loose threshold
 
 
 def test_target_icr_out_of_reach(pelvis):

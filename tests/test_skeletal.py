@@ -256,3 +256,40 @@ def test_cli_skeletal_compress_json(tests_data, tmp_path):
                         "--target-icr", "0.2"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert read_bvh(tmp_path / "w.bvh").n_frames == 60
+
+
+def test_amc_to_bvh_round_trip_positions(tests_data, tmp_path):
+    """ASF/AMC -> BVH -> read back: world positions equal within 1e-6 of the length unit."""
+    from mocapkit.io.amc import read_amc, read_asf
+
+    cmu = tests_data / "cmu"
+    asf = read_asf(cmu / "86.asf")
+    for amc in sorted(cmu.glob("*.amc")):
+        m = read_amc(amc, asf)
+        write_bvh(tmp_path / "x.bvh", m, precision=9)
+        back = read_bvh(tmp_path / "x.bvh")
+        P0, _ = forward_kinematics(m)
+        P1, _ = forward_kinematics(back)
+        assert np.abs(P1 - P0).max() < 1e-6, amc.name
+        assert back.n_frames == m.n_frames
+
+
+def test_amc_cli_compress_and_convert(tests_data, tmp_path):
+    cmu = tests_data / "cmu"
+    amc = sorted(cmu.glob("86_*.amc"))[0]
+    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "compress", str(amc), "-o", str(tmp_path / "a.glb"),
+                        "--max-position-error", "0.5", "--json"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    rec = json.loads(r.stdout)
+    assert rec["unit_cm"] == pytest.approx(2.54 / 0.45) and not rec["unit_cm_assumed"]
+    assert rec["max_position_error_cm"] <= 0.5 * (1 + 1e-9)
+    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "convert", str(amc), str(tmp_path / "a.bvh")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    other = sorted(cmu.glob("13_*.amc"))[0]
+    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "info", str(other)], capture_output=True, text=True)
+    assert r.returncode == 2 and "asf" in r.stderr.lower()
+    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "info", str(other), "--asf", str(cmu / "86.asf"),
+                        "--json"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["joints"] == 31

@@ -165,6 +165,11 @@ def compress(
         print(json.dumps(records, indent=1))
     else:
         err.print(_summary_table(records, f"{method.value}: {mode} {target:g}"))
+    if folder_mode and output is None:
+        err.print("no --output folder given: the segment points were not written")
+    skipped = sorted({f for s in signals.values() for f in s.meta.get("skipped_files", [])})
+    if skipped:
+        err.print(f"not orientation data, skipped: {', '.join(skipped)}")
 
 
 def _compress_skeletal(input, output, method, threshold, target_icr, max_position_error, max_angle,
@@ -333,11 +338,16 @@ def decompress(
         if not (math.isfinite(rate) and rate > 0):
             raise InvalidParameterError(f"--rate must be a positive number, got {rate!r}")
         n = int(math.floor((pts.times[-1] - pts.times[0]) * rate + 1e-9)) + 1
+        if n > 50_000_000:
+            raise InvalidParameterError(f"--rate {rate:g} over {pts.times[-1] - pts.times[0]:g} s gives {n} samples; too many")
         t = pts.times[0] + np.arange(n) / rate
     if len(pts) == 1:
         vals = np.repeat(normalize(pts.values), len(t), axis=0)
     else:
-        vals = reconstruct_points(pts.times, pts.values, t, "quaternion")
+        try:
+            vals = reconstruct_points(pts.times, pts.values, t, "quaternion")
+        except InvalidParameterError as e:
+            raise InvalidParameterError(f"{points}: {e}") from None
     write_signal_csv(output, t, vals)
     err.print(f"{points}: {len(pts)} points -> {len(t)} samples in {output}")
 
@@ -358,9 +368,9 @@ def stream(
         raise InvalidParameterError("give exactly one of --threshold or --max-angle (a target ICR needs the whole signal)")
     m = method.value
     if max_angle is not None:
-        if m not in ("anglesw", "fastsw"):
-            raise InvalidParameterError("--max-angle in a stream uses --method anglesw (online, guaranteed)")
-        m, threshold = "anglesw", max_angle
+        if m != "anglesw":
+            raise InvalidParameterError("--max-angle in a stream needs --method anglesw (online, guaranteed)")
+        threshold = max_angle
     enc = Encoder(m, threshold, max_segment_length=max_segment_length)
     out = sys.stdout
 
@@ -453,6 +463,8 @@ def bench(
     """ns/sample of batch kernels and streaming encoders vs mean segment length; fastSW/SW ratio."""
     from mocapkit.evaluation.bench import run_bench
 
+    if channels < 1 or frames < 100:
+        raise InvalidParameterError("--channels must be >= 1 and --frames >= 100")
     records, summary = run_bench(channels=channels, frames=frames, quick=quick, progress=err)
     err.print(summary)  # the table goes to stderr, so `--json > file` keeps both
     if as_json:

@@ -61,6 +61,8 @@ class Signal:
         if not np.all(np.isfinite(v)):
             i = int(np.flatnonzero(~np.all(np.isfinite(v), axis=1))[0])
             raise InvalidSignalError(f"{where}: sample {i} has a NaN or infinite value")
+        if not np.isfinite((t[-1] - t[0]) ** 2):
+            raise InvalidSignalError(f"{where}: the time span {t[-1] - t[0]!r} s is too large to compute with")
         bad = np.flatnonzero(np.diff(t) <= 0)
         if bad.size:
             i = int(bad[0])

@@ -30,6 +30,10 @@ FIELDS = [
 
 def paper_thresholds(n: int = 205) -> np.ndarray:
     """0 followed by ``n − 1`` thresholds log-spaced over nine decades, 1e-6..1e3 (Section 6)."""
+    if n < 2:
+        from mocapkit.errors import InvalidParameterError
+
+        raise InvalidParameterError(f"--thresholds needs at least 2 (0 and one more), got {n}")
     return np.concatenate([[0.0], np.logspace(-6, 3, n - 1)])
 
 
@@ -69,6 +73,7 @@ def run_sweep(
         X = prepared_values(sig)
         for method in methods:
             compress(sig, method, 1.0, max_segment_length, _prepared=X)  # compile outside the timing
+            _time_stream(Signal(sig.times[:50], sig.values[:50], sig.kind), method, 1.0, max_segment_length)
             for th in ths:
                 comp = compress(sig, method, float(th), max_segment_length, _prepared=X)
                 met = evaluate(sig, comp)

@@ -539,10 +539,19 @@ def read_sensor_folder(path: str | Path, rate: float | None = None) -> dict[str,
         raise MocapFormatError(
             src, None, "no sensors: expected one sub-folder per sensor or one *.csv/*.txt file per sensor"
         )
-    for f in files:
+    quat_files = [f for f in files if detect_format(f) is not None]
+    skipped = [f.name for f in files if f not in quat_files]
+    if not quat_files:
+        raise MocapFormatError(
+            src, None, "no quaternion file among " + ", ".join(f.name for f in files)
+            + "; accepted headers: " + "; ".join(ACCEPTED_HEADERS),
+        )
+    for f in quat_files:  # other CSVs (e.g. x-io Inertial.csv) are not orientation data: listed in meta
         if f.stem in out:
             raise MocapFormatError(src, None, f"two files for sensor {f.stem!r}; keep one")
         out[f.stem] = read_imu_csv(f, rate=rate, name=f.stem)
+        if skipped:
+            out[f.stem].meta["skipped_files"] = skipped
     return dict(sorted(out.items()))
 
 

@@ -24,14 +24,9 @@ def kind_of(path: str | Path) -> str:
     return "imu"
 
 
-def find_asf(amc: Path) -> Path | None:
-    """CMU naming: ``86_01.amc`` goes with ``86.asf`` in the same folder."""
-    cand = amc.with_name(amc.stem.split("_")[0] + ".asf")
-    return cand if cand.is_file() else None
-
-
 def load_motion(path: str | Path, asf: str | Path | None = None, rate: float | None = None, strict: bool = True) -> Motion:
-    """Read a BVH file, or an AMC file with its ASF skeleton (``asf`` or found by CMU naming)."""
+    """Read a BVH file, or an AMC file with its ASF skeleton (``asf``, or ``<stem>.asf`` /
+    ``<subject>.asf`` beside it, CMU naming)."""
     p = Path(path)
     if not p.exists():
         raise MocapFormatError(str(p), None, "no such file")
@@ -43,14 +38,9 @@ def load_motion(path: str | Path, asf: str | Path | None = None, rate: float | N
             raise MocapFormatError(str(p), None, "a BVH file has its own Frame Time; do not give --rate")
         return read_bvh(p, strict=strict)
     if s == ".amc":
-        from mocapkit.io.amc import read_amc, read_asf
+        from mocapkit.io.amc import load_amc_for_cli
 
-        a = Path(asf) if asf is not None else find_asf(p)
-        if a is None:
-            raise MocapFormatError(str(p), None, f"no skeleton: give --asf FILE.asf (looked for {p.stem.split('_')[0]}.asf beside it)")
-        if not a.exists():
-            raise MocapFormatError(str(a), None, "no such file")
-        return read_amc(p, read_asf(a), rate=120.0 if rate is None else rate)
+        return load_amc_for_cli(p, asf=asf, rate=rate)
     raise MocapFormatError(str(p), None, f"not a skeletal motion file (expected {', '.join(SKELETAL_SUFFIXES)})")
 
 

@@ -52,6 +52,8 @@ def iter_samples(
                 time_kind, tcol, qcols, ncols = lay.time_kind, lay.time_col, lay.quat_cols, len(lay.names)
                 if time_kind == "counter" and rate is None:
                     raise MocapFormatError(source, lineno, "this format has no timestamps: give --rate HZ")
+                if time_kind != "counter" and rate is not None:
+                    raise MocapFormatError(source, lineno, "this format has timestamps: do not give --rate")
                 continue
         if len(fields) != ncols:
             raise MocapFormatError(source, lineno, f"expected {ncols} columns, got {len(fields)}")
@@ -65,6 +67,8 @@ def iter_samples(
         if time_kind == "us":
             t = nums[tcol] / 1e6
         elif time_kind == "counter":
+            if nums[tcol] < 0 or nums[tcol] != int(nums[tcol]):
+                raise MocapFormatError(source, lineno, f"packet number {fields[tcol]!r} is not a non-negative integer")
             if first_counter is None:
                 first_counter = nums[tcol]
             t = (nums[tcol] - first_counter) / rate

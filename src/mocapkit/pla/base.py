@@ -22,6 +22,9 @@ METHODS: dict[str, tuple[object, bool, str]] = {
     "anglesw": (anglesw, True, "max angle in degrees between each sample and the SLERP decode"),
 }
 POS_METHODS = frozenset(m for m, (_, pos, _) in METHODS.items() if pos)
+#: anglesw checks every buffered sample per new sample: without a cap a still sensor would make its
+#: work per sample (and a stream's memory) grow without bound. 1000 is the paper's cap.
+BOUNDED_BY_DEFAULT = {"anglesw": 1000}
 
 
 def check_method(method: str) -> str:
@@ -38,6 +41,8 @@ def _check_params(method: str, threshold: float, max_segment_length: int | None,
         raise InvalidParameterError(f"max segment length must be >= 1, got {max_segment_length!r}")
     if method == "anglesw" and kind != "quaternion":
         raise InvalidParameterError("method 'anglesw' works on quaternion signals only")
+    if max_segment_length is None and method in BOUNDED_BY_DEFAULT:
+        return BOUNDED_BY_DEFAULT[method]
     return 0 if max_segment_length is None else int(max_segment_length)
 
 
@@ -203,6 +208,8 @@ class Encoder:
             raise InvalidSignalError(f"sample {self._n}: expected {self.dim} values, got {len(raw)}")
         if not math.isfinite(t) or not all(math.isfinite(v) for v in raw):
             raise InvalidSignalError(f"sample {self._n}: NaN or infinite value")
+        if self._n and not math.isfinite((t - self._first_t) ** 2):
+            raise InvalidSignalError(f"sample {self._n}: time {t!r} is too far from the first sample to compute with")
         if t <= self._last_t:
             what = "duplicate" if t == self._last_t else "earlier"
             raise InvalidSignalError(
@@ -226,6 +233,7 @@ class Encoder:
         self._last_t = t
         self._n += 1
         if i == 0:
+            self._first_t = t
             self._mod.start(*st, t, self._x)
             return [Point(0, t, raw)]
         if self._buffered and int(st[0][2]) + 1 >= st[-2].shape[0]:

@@ -26,8 +26,8 @@ def reconstruct_points(
         raise InvalidParameterError("segment point times must be strictly increasing")
     if t.size and (t.min() < pt[0] or t.max() > pt[-1]):
         raise InvalidParameterError(
-            f"requested times [{t.min()!r}, {t.max()!r}] reach outside the segment points' span "
-            f"[{pt[0]!r}, {pt[-1]!r}]"
+            f"requested times [{float(t.min())!r}, {float(t.max())!r}] s reach outside the segment points' "
+            f"span [{float(pt[0])!r}, {float(pt[-1])!r}] s"
         )
     if pt.shape[0] == 1:
         v = normalize(pv) if kind == "quaternion" else pv

@@ -49,7 +49,7 @@ def threshold_for_icr(
     top = run(10.0**hi)
     if top.icr > target_icr:
         raise InvalidParameterError(
-            f"{signal.name or 'signal'}: ICR {target_icr:g} is out of reach for {method}: the loosest "
+            f"{signal.source or signal.name or 'signal'}: ICR {target_icr:g} is out of reach for {method}: the loosest "
             f"threshold gives {top.icr:.4g} ({top.n_points} points"
             + (f"; max segment length {max_segment_length})" if max_segment_length else ")")
         )
@@ -81,7 +81,7 @@ def threshold_for_max_angle(
     if method == "anglesw":
         return compress(signal, method, max_angle_deg, max_segment_length)
     X = prepared_values(signal)
-    bound = max_angle_deg  # candidates must meet the bound itself; the slack is only for verification
+    bound = max_angle_deg + 1e-12  # candidates meet the bound itself (1e-12° absorbs rounding at 0°)
 
     def run(th: float) -> tuple[Compressed, bool]:
         c = compress(signal, method, th, max_segment_length, _prepared=X)
@@ -90,7 +90,7 @@ def threshold_for_max_angle(
     best, ok = run(0.0)
     if not ok:
         raise InvalidParameterError(
-            f"{signal.name or 'signal'}: {method} cannot keep every sample within {max_angle_deg:g}° "
+            f"{signal.source or signal.name or 'signal'}: {method} cannot keep every sample within {max_angle_deg:g}° "
             "even at threshold 0; use --method anglesw"
         )
     lo, hi = _search_range(method)
@@ -118,7 +118,7 @@ def verify_max_angle(signal: Signal, comp: Compressed, max_angle_deg: float) -> 
     m = max_deviation_deg(signal, comp)
     if not m <= max_angle_deg + BOUND_TOL_DEG:
         raise BoundViolationError(
-            f"{signal.name or 'signal'}: maximum deviation {m:.6g}° exceeds the bound {max_angle_deg:g}°"
+            f"{signal.source or signal.name or 'signal'}: maximum deviation {m:.6g}° exceeds the bound {max_angle_deg:g}°"
         )
     return m
 
@@ -138,11 +138,17 @@ def compress_to(
     if sum(given) != 1:
         raise InvalidParameterError("give exactly one of threshold, target ICR, max angle")
     if threshold is not None:
-        return compress(signal, method, threshold, max_segment_length)
+        return _finite(compress(signal, method, threshold, max_segment_length))
     if target_icr is not None:
-        return threshold_for_icr(signal, method, target_icr, max_segment_length)
+        return _finite(threshold_for_icr(signal, method, target_icr, max_segment_length))
     comp = threshold_for_max_angle(signal, method, float(max_angle), max_segment_length)
     verify_max_angle(signal, comp, float(max_angle))
+    return comp
+
+
+def _finite(comp: Compressed) -> Compressed:
+    if not np.all(np.isfinite(comp.values)):
+        raise BoundViolationError("a segment point is not finite (values or times out of floating-point range)")
     return comp
 
 
