@@ -229,3 +229,14 @@ def test_rate_for_files_without_timestamps(tests_data, tmp_path):
     assert r.returncode == 0, r.stderr
     orig = read_imu_csv(legacy, rate=100)
     assert np.array_equal(read_imu_csv(full).times, orig.times)
+
+
+def test_optimal_method_cli(pelvis):
+    r = run("compress", pelvis, "--method", "optimal", "--max-angle", "2", "--json")
+    assert r.returncode == 0, r.stderr
+    (opt,) = json.loads(r.stdout)
+    r = run("compress", pelvis, "--method", "anglesw", "--max-angle", "2", "--json")
+    (ang,) = json.loads(r.stdout)
+    assert opt["max_deg"] <= 2 + 1e-9 and opt["n_points"] <= ang["n_points"]
+    r = run("stream", "--method", "optimal", "--max-angle", "2", stdin=pelvis.read_text())
+    assert r.returncode == 2 and "offline" in r.stderr

@@ -31,6 +31,7 @@ class Method(str, Enum):
     cplr = "cplr"
     swing = "swing"
     anglesw = "anglesw"
+    optimal = "optimal"
 
 
 RateOpt = Annotated[
@@ -371,6 +372,8 @@ def stream(
         if m != "anglesw":
             raise InvalidParameterError("--max-angle in a stream needs --method anglesw (online, guaranteed)")
         threshold = max_angle
+    if m == "optimal":
+        raise InvalidParameterError("method 'optimal' is offline (it needs the whole signal); stream with anglesw")
     enc = Encoder(m, threshold, max_segment_length=max_segment_length)
     out = sys.stdout
 

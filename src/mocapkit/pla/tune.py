@@ -137,6 +137,14 @@ def compress_to(
     given = [x is not None for x in (threshold, target_icr, max_angle)]
     if sum(given) != 1:
         raise InvalidParameterError("give exactly one of threshold, target ICR, max angle")
+    if method == "optimal":  # offline: the fewest sample points for a maximum angle
+        if max_angle is None:
+            raise InvalidParameterError("method 'optimal' takes --max-angle only")
+        from mocapkit.pla.optimal import optimal_max_angle
+
+        comp = optimal_max_angle(signal, float(max_angle), max_segment_length)
+        verify_max_angle(signal, comp, float(max_angle))
+        return comp
     if threshold is not None:
         return _finite(compress(signal, method, threshold, max_segment_length))
     if target_icr is not None:
