@@ -368,12 +368,12 @@ def stream(
     if (threshold is None) == (max_angle is None):
         raise InvalidParameterError("give exactly one of --threshold or --max-angle (a target ICR needs the whole signal)")
     m = method.value
+    if m == "optimal":
+        raise InvalidParameterError("method 'optimal' is offline (it needs the whole signal); stream with anglesw")
     if max_angle is not None:
         if m != "anglesw":
             raise InvalidParameterError("--max-angle in a stream needs --method anglesw (online, guaranteed)")
         threshold = max_angle
-    if m == "optimal":
-        raise InvalidParameterError("method 'optimal' is offline (it needs the whole signal); stream with anglesw")
     enc = Encoder(m, threshold, max_segment_length=max_segment_length)
     out = sys.stdout
 

@@ -174,17 +174,62 @@ def forward_kinematics(motion: Motion, end_sites: bool = False):
     """
     sk = motion.skeleton
     N, J = motion.n_frames, sk.n_joints
-    local = quat_to_matrix(motion.rotations)  # (N, J, 3, 3)
-    R = np.empty((N, J, 3, 3))
-    P = np.empty((N, J, 3))
-    for j in range(J):
-        p = sk.parents[j]
+    # Joint-major, element-major layout: L (J, 3, 3, N) and t (J, 3, N), so that one matrix element
+    # of one joint is a contiguous run over all frames and each per-joint product is a few long ufunc
+    # loops into preallocated buffers (not N tiny 3×3 matmuls). L and t start as the local rotations
+    # and translations and are overwritten, parents first, with the world ones; few large temporaries.
+    c = np.asarray(motion.rotations, dtype=np.float64).transpose(2, 1, 0).copy()  # (4, J, N), own copy
+    # normalise and convert exactly as quat_to_matrix does (same operations in the same order)
+    norm = c[0] * c[0]
+    tmp = c[1] * c[1]
+    norm += tmp
+    np.multiply(c[2], c[2], out=tmp)
+    norm += tmp
+    np.multiply(c[3], c[3], out=tmp)
+    norm += tmp
+    np.sqrt(norm, out=norm)
+    c /= norm
+    w, x, y, z = c
+    L = np.empty((J, 3, 3, N))
+    for a, b, k in ((y, z, 0), (x, z, 1), (x, y, 2)):  # 1 - 2 (yy + zz) etc.
+        o = L[:, k, k]
+        np.multiply(a, a, out=o)
+        np.multiply(b, b, out=tmp)
+        o += tmp
+        o *= 2
+        np.subtract(1, o, out=o)
+    for a1, b1, a2, b2, (i, k) in ((x, y, w, z, (0, 1)), (x, z, w, y, (2, 0)), (y, z, w, x, (1, 2))):
+        minus, plus = L[:, i, k], L[:, k, i]  # 2 (xy - wz) at (0, 1), 2 (xy + wz) at (1, 0), ...
+        np.multiply(a1, b1, out=minus)
+        np.multiply(a2, b2, out=tmp)
+        np.add(minus, tmp, out=plus)
+        minus -= tmp
+        minus *= 2
+        plus *= 2
+    del c, norm, tmp, w, x, y, z
+    t = np.asarray(motion.translations, dtype=np.float64).transpose(1, 2, 0).copy()  # (J, 3, N), own copy
+    macc, mbuf = np.empty((3, 3, N)), np.empty((3, 3, N))
+    vacc, vbuf = np.empty((3, N)), np.empty((3, N))
+    for j, p in enumerate(sk.parents.tolist()):
         if p < 0:
-            R[:, j] = local[:, j]
-            P[:, j] = motion.translations[:, j]
-        else:
-            R[:, j] = np.matmul(R[:, p], local[:, j])
-            P[:, j] = P[:, p] + np.einsum("nab,nb->na", R[:, p], motion.translations[:, j])
+            continue  # a root's world rotation and position are its local ones
+        Rp, Lj, tj = L[p], L[j], t[j]
+        # R_j[a, c] = Σ_b R_p[a, b] · r_j[b, c]
+        np.multiply(Rp[:, 0, None], Lj[0], out=macc)
+        np.multiply(Rp[:, 1, None], Lj[1], out=mbuf)
+        macc += mbuf
+        np.multiply(Rp[:, 2, None], Lj[2], out=mbuf)
+        macc += mbuf
+        # p_j = p_p + R_p · t_j
+        np.multiply(Rp[:, 0], tj[0], out=vacc)
+        np.multiply(Rp[:, 1], tj[1], out=vbuf)
+        vacc += vbuf
+        np.multiply(Rp[:, 2], tj[2], out=vbuf)
+        vacc += vbuf
+        np.add(t[p], vacc, out=tj)
+        Lj[...] = macc
+    P = np.ascontiguousarray(t.transpose(2, 0, 1))
+    R = np.ascontiguousarray(L.transpose(3, 0, 1, 2))
     if not end_sites:
         return P, R
     E = np.empty((N, len(sk.end_sites), 3))

@@ -24,7 +24,7 @@ from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import MocapFormatError
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.quat import from_scipy, to_scipy
+from mocapkit.quat import to_scipy
 from mocapkit.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
 _VALID_CHANNELS = POSITION_CHANNELS + ROTATION_CHANNELS
@@ -132,7 +132,10 @@ def _parse_joint(tk: _Tokens, name: str, parent: int, out: dict) -> None:
 
 
 def _split_lines(text: str) -> list[str]:
-    return text.lstrip("\ufeff").replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    text = text.lstrip("\ufeff")
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    return text.split("\n")
 
 
 def read_bvh(path: str | Path, strict: bool = True) -> Motion:
@@ -213,15 +216,27 @@ def _parse_motion(lines, motion_line, n_channels, path, strict):
     while data and not data[-1].strip():
         data.pop()
     warn = []
-    # fast path: every line has exactly the channel count of plain numbers
-    split = [ln.split() for ln in data]
-    if all(len(s) == n_channels for s in split):
+    values = None
+    # fastest path: NumPy's C text reader on the whole block. It accepts a subset of what the paths
+    # below accept (no "1_0", no non-ASCII digits) and reads the same values; it silently skips blank
+    # lines, which are errors here, so those go to the paths below, as does any other failure.
+    if data and all(ln and not ln.isspace() for ln in data):
         try:
-            values = np.array(split, dtype=np.float64).reshape(len(data), n_channels)
-        except ValueError:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                values = np.loadtxt(data, dtype=np.float64, comments=None, ndmin=2)
+        except Exception:
             values = None
-    else:
-        values = None
+        if values is not None and values.shape != (len(data), n_channels):
+            values = None
+    if values is None:
+        # fast path: every line has exactly the channel count of plain numbers
+        split = [ln.split() for ln in data]
+        if all(len(s) == n_channels for s in split):
+            try:
+                values = np.array(split, dtype=np.float64).reshape(len(data), n_channels)
+            except ValueError:
+                values = None
     if values is None:
         rows = []
         for k, ln in enumerate(data):
@@ -258,23 +273,61 @@ def motion_from_channels(skel: Skeleton, values: np.ndarray, frame_time: float, 
     """Build a Motion from BVH channel values ``(N, C)`` (degrees; positions replace offsets)."""
     N = values.shape[0]
     J = skel.n_joints
+    axis = {"X": 0, "Y": 1, "Z": 2}
     rot = np.empty((N, J, 4))
     trans = np.broadcast_to(skel.offsets, (N, J, 3)).copy()
+    pos_joint, pos_axis, pos_col = [], [], []
+    groups: dict[str, tuple[list[int], list[list[int]]]] = {}  # rotation order -> (joints, columns)
     col = 0
     for j, chans in enumerate(skel.channels):
         order = ""
         rcols = []
         for c in chans:
             if c in POSITION_CHANNELS:
-                trans[:, j, "XYZ".index(c[0])] = values[:, col]
+                pos_joint.append(j)
+                pos_axis.append("XYZ".index(c[0]))
+                pos_col.append(col)
             else:
                 order += c[0]
                 rcols.append(col)
             col += 1
         if order:
-            rot[:, j] = from_scipy(Rotation.from_euler(order, values[:, rcols], degrees=True))
+            g = groups.setdefault(order, ([], []))
+            g[0].append(j)
+            g[1].append(rcols)
         else:
             rot[:, j] = (1.0, 0.0, 0.0, 0.0)
+    if pos_col:
+        trans[:, pos_joint, pos_axis] = values[:, pos_col]
+    # Intrinsic Euler angles to scalar-first quaternions for all joints of one order at once: the
+    # product of the elementary quaternions e0·e1·e2 computed with exactly the operations of scipy's
+    # Rotation.from_euler(order, angles, degrees=True) (same values bit for bit, signed zeros and
+    # NaNs included, no sign canonicalisation) without its per-element cost. Quaternions are
+    # (x, y, z, w) here as in scipy; 0.0 stands for a component that is +0.0 in every frame.
+    for order, (joints, cols) in groups.items():
+        if any(a == b for a, b in zip(order, order[1:])):
+            Rotation.from_euler(order, values[:, cols[0]], degrees=True)  # raises scipy's error, as before
+        half = np.asarray(values[:, cols], dtype=np.float64)  # (N, joints, len(order)), a new array
+        np.deg2rad(half, out=half)
+        half /= 2.0
+        with np.errstate(invalid="ignore"):  # cos/sin of ±inf give NaN quietly, as in scipy
+            cos = np.cos(half)
+            sin = np.sin(half, out=half)
+        p = [0.0, 0.0, 0.0, cos[..., 0]]
+        p[axis[order[0]]] = sin[..., 0]
+        for i in range(1, len(order)):
+            e = [0.0, 0.0, 0.0, cos[..., i]]
+            e[axis[order[i]]] = sin[..., i]
+            cross = [p[1] * e[2] - p[2] * e[1], p[2] * e[0] - p[0] * e[2], p[0] * e[1] - p[1] * e[0]]
+            r = [p[3] * e[k] + e[3] * p[k] + cross[k] for k in range(3)]
+            r.append(p[3] * e[3] - p[0] * e[0] - p[1] * e[1] - p[2] * e[2])
+            p = r
+        q = np.empty((N, len(joints), 4))
+        q[..., 0] = p[3]
+        q[..., 1] = p[0]
+        q[..., 2] = p[1]
+        q[..., 3] = p[2]
+        rot[:, joints] = q
     times = np.arange(N) * frame_time
     return Motion(skel, times, rot, trans, channel_values=values, source=source, meta={"frame_time": frame_time})
 
