@@ -241,7 +241,7 @@ def info(
             "warnings": m.meta.get("warnings", []),
         }
     elif kind == "markers":
-        from mocapkit.io.markerfiles import load_markers
+        from mocapkit.markers import load_markers
 
         mk = load_markers(input)
         rec = {
@@ -296,7 +296,7 @@ def convert(
     elif kind == "markers":
         if output.suffix.lower() != ".csv":
             raise InvalidParameterError(f"{output}: markers convert to .csv")
-        from mocapkit.io.markerfiles import load_markers
+        from mocapkit.markers import load_markers
 
         mk = load_markers(input)
         mk.to_csv(output)
