@@ -21,7 +21,7 @@ from mocapkit.markers import Markers, load_markers, make_unique_labels, read_mar
 ezc3d = pytest.importorskip("ezc3d")
 
 TESTS_DIR = Path(__file__).resolve().parent
-EXCERPT = TESTS_DIR / "data" / "markers" / "juggling-qualisys-300hz-first300.tsv"
+EXCERPT = TESTS_DIR / "data" / "markers" / "juggling-qualisys-300hz-first120.tsv"
 C3D_FILES = {"Vicon.c3d": 51, "BTS.c3d": 22, "FP_Type1.c3d": 22}
 JUGGLING_NAMES = ("base_1", "base_2", "base_3", "base_4", "base_5")
 
@@ -365,11 +365,11 @@ def _reference_zero_triplets(path: Path, skip: int = 12) -> np.ndarray:
 
 def test_tsv_excerpt():
     m = read_qtm_tsv(EXCERPT)
-    assert m.n_frames == 300 and m.n_markers == 24 and m.rate == 300.0 and m.units == "mm"
+    assert m.n_frames == 120 and m.n_markers == 24 and m.rate == 300.0 and m.units == "mm"
     assert m.labels[:5] == JUGGLING_NAMES
     assert m.labels[5:] == tuple(f"unnamed_{k}" for k in range(6, 25))
     assert len(m.meta["label_fixes"]) == 19
-    assert m.times[0] == 0.0 and m.times[1] == 0.00333 and m.times[-1] == 0.99667
+    assert m.times[0] == 0.0 and m.times[1] == 0.00333 and m.times[-1] == 0.39667
     np.testing.assert_array_equal(m.missing, _reference_zero_triplets(EXCERPT))
     assert m.missing[:, 10:].all() and not m.missing[:, :6].any()
     assert m.positions[0, 0].tolist() == [228.117, -404.129, -672.697]
@@ -378,9 +378,9 @@ def test_tsv_excerpt():
     assert m.meta["header"]["DESCRIPTION"] == ["--"]
     assert m.meta["header_lines"]["MARKER_NAMES"] == 10
     assert m.meta["trajectory_types"][12] == "Mixed"
-    assert m.meta["frame_numbers"][-1] == 300 and m.meta["frame_gaps"] == 0
+    assert m.meta["frame_numbers"][-1] == 120 and m.meta["frame_gaps"] == 0
     assert m.analog is None
-    assert load_markers(EXCERPT).n_frames == 300
+    assert load_markers(EXCERPT).n_frames == 120
 
 
 @pytest.mark.parametrize("variant", ["crlf", "no-final-newline", "bom", "trailing-tabs", "latin1"])
@@ -409,7 +409,7 @@ def test_tsv_text_variants_read_the_same(tmp_path, variant):
         assert m.labels == base.labels
 
 
-def _excerpt_lines(rows: int = 300) -> list[str]:
+def _excerpt_lines(rows: int = 120) -> list[str]:
     lines = EXCERPT.read_text().split("\n")[: 12 + rows]
     lines[0] = f"NO_OF_FRAMES\t{rows}"
     return lines

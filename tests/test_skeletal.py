@@ -222,7 +222,7 @@ def _validator():
 @pytest.mark.parametrize("suffix", [".glb", ".gltf"])
 def test_gltf_valid_and_keyframes(tests_data, tmp_path, suffix):
     node, mods = _validator()
-    m = read_bvh(tests_data / "bvh" / "perception-neuron-freya-30.bvh")
+    m = read_bvh(tests_data / "bvh" / "perception-neuron-freya-12.bvh")
     comp = compress_motion(m, "cplr", target_icr=0.2)
     out = write_gltf(tmp_path / f"pn{suffix}", comp)
     r = subprocess.run([node, str(ROOT / "tools" / "validate_gltf.mjs"), str(out)], capture_output=True, text=True,
