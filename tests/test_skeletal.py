@@ -293,3 +293,41 @@ def test_amc_cli_compress_and_convert(tests_data, tmp_path):
                         "--json"], capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["joints"] == 31
+
+
+def test_amc_to_bvh_round_trip_on_shared_files(shared_data, tmp_path):
+    from mocapkit.io.amc import read_amc, read_asf
+
+    asf = read_asf(shared_data / "cmu" / "86.asf")
+    for name in ("86_01", "13_29", "13_30", "14_14"):
+        m = read_amc(shared_data / "cmu" / f"{name}.amc", asf)
+        write_bvh(tmp_path / "x.bvh", m, precision=9)
+        back = read_bvh(tmp_path / "x.bvh")
+        assert np.abs(forward_kinematics(back)[0] - forward_kinematics(m)[0]).max() < 1e-6, name
+
+
+def test_position_bound_on_shared_cmu(shared_data):
+    from mocapkit.io.amc import read_amc, read_asf
+
+    m = read_amc(shared_data / "cmu" / "86_01.amc", read_asf(shared_data / "cmu" / "86.asf"))
+    bound = 0.5 / m.skeleton.meta["length_unit_cm"]  # 0.5 cm in file units
+    comp = compress_motion(m, "fastsw", max_position_error=bound)
+    assert position_errors(m, comp.decode()).max() <= bound * (1 + 1e-9)
+    assert comp.icr < 0.25
+
+
+def test_convert_bvh_to_amc_and_back(tests_data, tmp_path):
+    cmu = tests_data / "cmu"
+    amc = sorted(cmu.glob("86_*.amc"))[0]
+    exe = [sys.executable, "-m", "mocapkit.cli", "convert"]
+    r = subprocess.run([*exe, str(amc), str(tmp_path / "a.bvh"), "--precision", "9"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([*exe, str(tmp_path / "a.bvh"), str(tmp_path / "b.amc"), "--asf", str(cmu / "86.asf")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    from mocapkit.io.amc import read_amc, read_asf
+
+    asf = read_asf(cmu / "86.asf")
+    P0 = forward_kinematics(read_amc(amc, asf))[0]
+    P1 = forward_kinematics(read_amc(tmp_path / "b.amc", asf))[0]
+    assert np.abs(P1 - P0).max() < 1e-4  # AMC is written with 6 decimals

@@ -14,7 +14,7 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from mocapkit.errors import InvalidParameterError, MocapError
+from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapError
 
 app = typer.Typer(
     add_completion=False,
@@ -277,21 +277,33 @@ def info(
 @app.command()
 def convert(
     input: Annotated[Path, typer.Argument(help="AMC (+ --asf) or BVH; C3D or Qualisys TSV.")],
-    output: Annotated[Path, typer.Argument(help="BVH for skeletal input; CSV for markers.")],
+    output: Annotated[Path, typer.Argument(help="BVH or AMC for skeletal input; CSV for markers.")],
     asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
     precision: Annotated[int, typer.Option("--precision", help="Decimals written to BVH.")] = 6,
 ) -> None:
-    """Convert AMC (with its ASF) to BVH, BVH to BVH, and markers (C3D, TSV) to CSV."""
+    """Convert AMC (with its ASF) to BVH and back (BVH + --asf to AMC), and markers (C3D, TSV) to CSV."""
     from mocapkit.io.loaders import kind_of, load_motion
 
     kind = kind_of(input)
     if kind == "skeletal":
-        if output.suffix.lower() != ".bvh":
-            raise InvalidParameterError(f"{output}: skeletal motion converts to .bvh")
-        from mocapkit.io.bvh import write_bvh
+        suffix = output.suffix.lower()
+        if suffix not in (".bvh", ".amc"):
+            raise InvalidParameterError(f"{output}: skeletal motion converts to .bvh or .amc")
+        if suffix == ".bvh":
+            from mocapkit.io.bvh import write_bvh
 
-        m = load_motion(input, asf=asf)
-        write_bvh(output, m, precision=precision)
+            m = load_motion(input, asf=asf)
+            write_bvh(output, m, precision=precision)
+        else:
+            if asf is None or input.suffix.lower() != ".bvh":
+                raise InvalidParameterError("BVH -> AMC needs --asf (the skeleton the BVH was made from)")
+            from mocapkit.io.amc import read_asf, write_amc
+
+            m = load_motion(input)
+            try:
+                write_amc(output, m, read_asf(asf))
+            except InvalidSignalError as e:  # a rotation the ASF's dofs cannot express: name the files
+                raise InvalidSignalError(f"{input} -> {output}: {e}") from None
         err.print(f"{input} -> {output}: {m.n_frames} frames, {m.skeleton.n_joints} joints")
     elif kind == "markers":
         if output.suffix.lower() != ".csv":
