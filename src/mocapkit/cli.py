@@ -444,7 +444,9 @@ def sweep(
 
 
 def _sweep_skeletal(inputs, out: Path, asf, unit_cm) -> None:
-    from mocapkit.evaluation.skeletal import evaluate_motion, stick_figure_png, summary_table, write_rows
+    from mocapkit.evaluation.skeletal import (
+        evaluate_motion, plot_curves, stick_figure_png, summary_table, write_rows,
+    )
     from mocapkit.io.loaders import load_motion, unit_cm as find_unit
 
     units = {}
@@ -464,8 +466,9 @@ def _sweep_skeletal(inputs, out: Path, asf, unit_cm) -> None:
         rows += evaluate_motion(p.stem, m, u)
         stick_figure_png(m, out / f"fig5_{p.stem}.png")
     write_rows(rows, out / "skeletal.csv")
+    plot_curves(rows, out / "icr_vs_position_error.png")
     err.print(summary_table(rows))
-    err.print(f"wrote {out / 'skeletal.csv'} and fig5_*.png")
+    err.print(f"wrote {out / 'skeletal.csv'}, icr_vs_position_error.png and fig5_*.png")
 
 
 @app.command()

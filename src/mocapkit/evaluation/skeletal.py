@@ -87,6 +87,43 @@ def stick_figure_png(motion: Motion, path: Path, sizes=(0.5, 0.25, 0.10, 0.05), 
     return _save(fig, path)
 
 
+def plot_curves(rows: list[dict], path: Path) -> Path:
+    """ICR vs max (dashed) and mean (solid) world-position error, one panel per file, one colour per
+    method; the guaranteed mode as black dots."""
+    from mocapkit.plot import COLORS, LABELS, _save, plt
+
+    files = list(dict.fromkeys(r["file"] for r in rows))
+    ncol = min(3, len(files))
+    nrow = -(-len(files) // ncol)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.6 * nrow), squeeze=False)
+    for ax in axes.flat[len(files):]:
+        ax.set_visible(False)
+    for ax, f in zip(axes.flat, files):
+        for m in METHODS:
+            rs = sorted((r for r in rows if r["file"] == f and r["method"] == m and r["mode"] == "target_icr"),
+                        key=lambda r: float(r["icr"]))
+            if not rs:
+                continue
+            x = [float(r["icr"]) for r in rs]
+            ax.plot(x, [float(r["mean_cm"]) for r in rs], "-o", ms=3, color=COLORS.get(m), label=LABELS.get(m, m))
+            ax.plot(x, [float(r["max_cm"]) for r in rs], "--", color=COLORS.get(m), lw=0.8)
+        g = [r for r in rows if r["file"] == f and r["mode"] == "max_position_error"]
+        ax.plot([float(r["icr"]) for r in g], [float(r["max_cm"]) for r in g], "k.", label="guaranteed max")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ticks = [0.02, 0.05, 0.1, 0.25, 0.5, 1.0]
+        ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
+        ax.minorticks_off()
+        ax.set_title(f, fontsize=9)
+        ax.set_xlabel("ICR")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.set_ylabel("position error [cm]")
+    fig.suptitle("world-position error vs ICR: mean (solid), max (dashed); guaranteed mode (dots)", fontsize=9)
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
 def summary_table(rows: list[dict]):
     from rich.table import Table
 
