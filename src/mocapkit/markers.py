@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.atomic import atomic_write_text
+from mocapkit.io.atomic import atomic_write_text, read_file_bytes
 
 __all__ = [
     "Markers",
@@ -363,12 +363,7 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str = "
     """
     p = Path(path)
     src = str(p)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise MocapFormatError(src, None, "no such file") from None
-    except OSError as exc:
-        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
+    data = read_file_bytes(p, "CSV file")
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
     try:

@@ -69,3 +69,19 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
     """Write ``data`` to ``path`` atomically."""
     with atomic_writer(path, binary=True) as fh:
         fh.write(data)
+
+
+def read_file_bytes(path: str | os.PathLike[str], what: str = "file") -> bytes:
+    """The bytes of ``path``; a missing, unreadable or folder path raises ``MocapFormatError``
+    naming it (``what`` says what was expected, e.g. ``"C3D file"``)."""
+    from mocapkit.errors import MocapFormatError
+
+    src = str(path)
+    try:
+        return Path(path).read_bytes()
+    except FileNotFoundError:
+        raise MocapFormatError(src, None, "no such file") from None
+    except IsADirectoryError:
+        raise MocapFormatError(src, None, f"is a folder, not a {what}") from None
+    except OSError as exc:
+        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None

@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
+from mocapkit.io.atomic import read_file_bytes
 from mocapkit.markers import Markers, make_unique_labels
 
 __all__ = ["read_c3d", "check_c3d_structure", "C3DLayout"]
@@ -546,14 +547,7 @@ def read_c3d(path: str | Path) -> Markers:
     """Read the markers (and analog channels) of a C3D file; see the module docstring."""
     p = Path(path)
     src = str(p)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise MocapFormatError(src, None, "no such file") from None
-    except IsADirectoryError:
-        raise MocapFormatError(src, None, "is a folder, not a C3D file") from None
-    except OSError as exc:
-        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
+    data = read_file_bytes(p, "C3D file")
     try:
         layout = _check(data)
     except _Bad as exc:

@@ -37,7 +37,7 @@ from mocapkit.errors import (
     InvalidSignalError,
     MocapFormatError,
 )
-from mocapkit.io.atomic import atomic_write_text
+from mocapkit.io.atomic import atomic_write_text, read_file_bytes
 from mocapkit.motion import Signal
 
 __all__ = [
@@ -186,12 +186,7 @@ def read_imu_csv(path: str | Path, rate: float | None = None, name: str | None =
     """
     p = Path(path)
     src = str(p)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise MocapFormatError(src, None, "no such file or folder") from None
-    except OSError as exc:
-        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
+    data = read_file_bytes(p, "file")
     text = _decode(data, src)
     return read_imu_text(text, src, rate=rate, name=p.stem if name is None else name)
 

@@ -58,6 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
+from mocapkit.io.atomic import read_file_bytes
 from mocapkit.markers import Markers, make_unique_labels
 
 __all__ = ["read_qtm_tsv", "read_qtm_tsv_text", "REQUIRED_FIELDS"]
@@ -82,14 +83,7 @@ def read_qtm_tsv(path: str | Path, *, strict: bool = True) -> Markers:
     """Read a QTM 3-D TSV export (see the module docstring for the rules)."""
     p = Path(path)
     src = str(p)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise MocapFormatError(src, None, "no such file") from None
-    except IsADirectoryError:
-        raise MocapFormatError(src, None, "is a folder, not a TSV file") from None
-    except OSError as exc:
-        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
+    data = read_file_bytes(p, "TSV file")
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
     try:
