@@ -317,6 +317,128 @@ def convert(
         raise InvalidParameterError(f"{input}: convert reads BVH, AMC, C3D or TSV files")
 
 
+class Solver(str, Enum):
+    exact = "exact"
+    iterative = "iterative"
+
+
+def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
+    """``[(name, times, values (N, D), component names)]`` to filter."""
+    from mocapkit.errors import MocapFormatError
+    from mocapkit.io.loaders import kind_of
+
+    out = []
+    if markers is not None and columns is not None:
+        raise InvalidParameterError("give --markers or --columns, not both")
+    is_markers = kind_of(input) == "markers"
+    if not is_markers and input.suffix.lower() == ".csv":
+        head = input.open(encoding="utf-8", errors="replace").readline()
+        is_markers = head.strip().lower().startswith("time,") and "_x" in head
+        if columns is not None:
+            is_markers = False
+    if is_markers:
+        from mocapkit.markers import load_markers
+
+        mk = load_markers(input)
+        wanted = [w.strip() for w in markers.split(",")] if markers else list(mk.labels)
+        for w in wanted:
+            name, _, comp = w.partition(":")
+            if name not in mk.labels:
+                raise InvalidParameterError(f"{input}: no marker {name!r} (markers: {', '.join(mk.labels[:12])}...)")
+            comps = comp.lower() or "xyz"
+            if any(c not in "xyz" for c in comps):
+                raise InvalidParameterError(f"{w!r}: components are x, y, z (e.g. {name}:z)")
+            cols = ["xyz".index(c) for c in comps]
+            out.append((w, mk.times, mk.positions[:, mk.labels.index(name)][:, cols], [f"{name}_{c}" for c in comps]))
+        return out
+    if markers is not None:
+        raise InvalidParameterError(f"{input}: --markers needs a C3D, Qualisys TSV or marker CSV file")
+    # a plain CSV with a header: a time column (first) and named columns
+    lines = input.read_text(encoding="utf-8").splitlines()
+    if not lines:
+        raise MocapFormatError(str(input), None, "empty file")
+    header = [h.strip() for h in lines[0].split(",")]
+    rows = []
+    for i, ln in enumerate(lines[1:], start=2):
+        if not ln.strip():
+            continue
+        f = ln.split(",")
+        if len(f) != len(header):
+            raise MocapFormatError(str(input), i, f"expected {len(header)} columns, got {len(f)}")
+        try:
+            rows.append([float(x) if x.strip() != "" else float("nan") for x in f])
+        except ValueError:
+            raise MocapFormatError(str(input), i, "a field is not a number") from None
+    if not rows:
+        raise MocapFormatError(str(input), None, "header only, no data rows")
+    data = np.array(rows)
+    names = [c.strip() for c in columns.split(",")] if columns else header[1:]
+    for c in names:
+        if c not in header[1:]:
+            raise InvalidParameterError(f"{input}: no column {c!r} (columns: {', '.join(header[1:])})")
+        out.append((c, data[:, 0], data[:, [header.index(c)]], [c]))
+    return out
+
+
+@app.command("filter")
+def filter_cmd(
+    input: Annotated[Path, typer.Argument(help="C3D, Qualisys TSV, marker CSV or a CSV with a time column.")],
+    order: Annotated[int, typer.Option("--order", help="Polynomial order of every chunk.")] = 2,
+    penalty: Annotated[Optional[float], typer.Option("--penalty", help="K: the cost of a knot, in signal units.")] = None,
+    auto: Annotated[bool, typer.Option("--auto", help="K from the noise level (see docs).")] = False,
+    solver: Annotated[Solver, typer.Option("--solver", help="exact (global optimum) or iterative (the seed's).")] = Solver.exact,
+    markers: Annotated[Optional[str], typer.Option("--markers", help="NAME[:xyz],... (knots shared by the components).")] = None,
+    columns: Annotated[Optional[str], typer.Option("--columns", help="CSV columns to filter, each on its own.")] = None,
+    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Filtered values at the input times (CSV).")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Knots and polynomial pieces as JSON.")] = False,
+    plot: Annotated[Optional[Path], typer.Option("--plot", help="PNG: position and two derivatives of the first signal.")] = None,
+) -> None:
+    """Filter by piecewise polynomials: keeps discontinuities (catches, throws, heel strikes)."""
+    from mocapkit.filters.api import fit
+
+    if (penalty is None) == (not auto):
+        raise InvalidParameterError("give exactly one of --penalty K or --auto")
+    if order < 0:
+        raise InvalidParameterError("--order must be >= 0")
+    signals = _filter_inputs(input, markers, columns)
+    results = []
+    for name, t, Y, comps in signals:
+        r = fit(t, Y, order, penalty, solver.value)
+        results.append((name, t, Y, comps, r))
+    if output is not None:
+        from mocapkit.io.atomic import atomic_write_text
+
+        t = results[0][1]
+        cols = [r.evaluate(t) for (_, tt, _, _, r) in results]
+        head = ["time"] + [c for (_, _, _, comps, _) in results for c in comps]
+        body = np.column_stack([t] + cols)
+        atomic_write_text(output, ",".join(head) + "\n" + "\n".join(",".join(repr(float(v)) for v in row) for row in body) + "\n")
+    if as_json:
+        recs = []
+        for name, t, Y, comps, r in results:
+            D = Y.shape[1]
+            recs.append({
+                "name": name, "components": comps, "order": order, "penalty": r.penalty, "solver": r.solver,
+                "loss": r.loss, "iterative_loss": r.iterative_loss, "n_knots": r.n_knots,
+                "pieces": [{"t0": p.t0, "t1": p.t1,
+                            "coeffs": p.coeffs[:, 0].tolist() if D == 1 else [p.coeffs[:, d].tolist() for d in range(D)]}
+                           for p in r.pieces],
+            })
+        print(json.dumps(recs, indent=1))
+    else:
+        tab = Table(title=f"{input.name}: piecewise polynomials of order {order} ({solver.value})")
+        for c in ("signal", "K", "knots", "pieces", "loss", "iterative loss"):
+            tab.add_column(c, justify="right")
+        for name, t, Y, comps, r in results:
+            tab.add_row(name, f"{r.penalty:.4g}", str(r.n_knots), str(len(r.pieces)), f"{r.loss:.6g}", f"{r.iterative_loss:.6g}")
+        err.print(tab)
+    if plot is not None:
+        from mocapkit.plot import plot_ppa
+
+        name, t, Y, comps, r = results[0]
+        plot_ppa(t, Y[:, -1], r, plot, title=f"{input.name}: {comps[-1]}")
+
+
 @app.command()
 def decompress(
     points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z).")],

@@ -79,3 +79,30 @@ def plot_sweep_error(agg: list[dict], path: Path) -> Path:
         ax.legend()
     fig.tight_layout()
     return _save(fig, path)
+
+
+def plot_ppa(t, y, result, path, title: str = "", butter=None) -> "Path":
+    """Like Figure 3 of the seed report: a signal with its piecewise polynomial fit and knots, and the
+    fit's first and second time derivatives (optionally a Butterworth-filtered comparison)."""
+    t = np.asarray(t, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64).reshape(len(t), -1)[:, -1]
+    fig, axes = plt.subplots(3, 1, figsize=(10, 7.5), sharex=True)
+    tt = np.linspace(t[0], t[-1], max(2000, 4 * len(t)))
+    comp = -1
+    axes[0].plot(t, y, ".", ms=2, color="0.6", label="data")
+    for d, ax in enumerate(axes):
+        v = result.evaluate(tt, derivative=d)[:, comp]
+        ax.plot(tt, v, color="tab:red", lw=1.2, label="piecewise polynomial")
+        if butter is not None:
+            ax.plot(t, butter[d], color="tab:blue", lw=0.8, alpha=0.8, label="Butterworth (filtfilt)")
+        for p in result.pieces[1:]:
+            ax.axvline(p.t0, color="tab:green", lw=0.5, alpha=0.6)
+        ax.grid(True, alpha=0.3)
+    axes[0].set_ylabel("position")
+    axes[1].set_ylabel("velocity /s")
+    axes[2].set_ylabel("acceleration /s²")
+    axes[2].set_xlabel("time [s]")
+    axes[0].legend(fontsize=8, loc="upper right")
+    axes[0].set_title(title + "  (knots: green lines)")
+    fig.tight_layout()
+    return _save(fig, path)
