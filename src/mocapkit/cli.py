@@ -439,6 +439,43 @@ def filter_cmd(
         plot_ppa(t, Y[:, -1], r, plot, title=f"{input.name}: {comps[-1]}")
 
 
+@app.command("filter-eval")
+def filter_eval(
+    out: Annotated[Path, typer.Option("--out", help="Folder for the JSON results and figures.")] = Path("filter-out"),
+    juggling: Annotated[Optional[Path], typer.Option("--juggling", help="The Qualisys juggling TSV.")] = None,
+    sizes: Annotated[str, typer.Option("--sizes", help="Signal lengths for the exact solver's time curve.")] = "1000,2000,5000,10000,20000,50000",
+) -> None:
+    """The filtering experiments: synthetic Figure 2 signal, step overshoot, juggling flights, timing."""
+    from mocapkit.evaluation.filtering import evaluate_juggling, evaluate_synthetic, exact_time_curve, figures
+    from mocapkit.io.atomic import atomic_write_text
+
+    out.mkdir(parents=True, exist_ok=True)
+    syn = evaluate_synthetic()
+    atomic_write_text(out / "synthetic.json", json.dumps(syn, indent=1))
+    mk = None
+    if juggling is not None:
+        from mocapkit.markers import load_markers
+
+        mk = load_markers(juggling)
+        balls = [b for b in mk.labels if not b.startswith("base") and
+                 np.isfinite(mk.positions[:, mk.labels.index(b), 2]).mean() >= 0.5]
+        jug = evaluate_juggling(mk, balls)
+        atomic_write_text(out / "juggling.json", json.dumps(jug, indent=1))
+        err.print(f"juggling: {jug['n_flights']} flights of {len(balls)} balls, median acceleration "
+                  f"{jug['median_flight_acc']:.3f} m/s²")
+    curve = exact_time_curve(tuple(int(x) for x in sizes.split(",")))
+    atomic_write_text(out / "timing.json", json.dumps(curve, indent=1))
+    for p in figures(out, mk):
+        err.print(f"wrote {p}")
+    rows = syn["rows"]
+    for k in ("exact_f1", "iterative_f1", "exact_rmse", "butterworth_rmse", "spline_rmse",
+              "exact_overshoot", "butterworth_overshoot", "spline_overshoot"):
+        err.print(f"synthetic {k}: mean {np.mean([r[k] for r in rows]):.4f}")
+    for c in curve:
+        err.print(f"n = {c['n']}: iterative {c['iterative_s']:.2f} s, exact {c['exact_s']:.2f} s, "
+                  f"loss gap {c['iterative_loss'] - c['exact_loss']:.4g}")
+
+
 @app.command()
 def decompress(
     points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z).")],

@@ -145,3 +145,64 @@ def exact_time_curve(sizes=(1000, 2000, 5000, 10000, 20000, 50000), penalty: flo
         rows.append({"n": n, "iterative_s": t1 - t0, "exact_s": t2 - t1, "knots": ex.n_knots,
                      "iterative_loss": it.loss, "exact_loss": ex.loss})
     return rows
+
+
+def figures(out: Path, markers=None, ball: str = "unnamed_6", penalty: float = 100.0) -> list[Path]:
+    """Figure 1 (filtfilt overshoot at a clean step), Figure 2 (the synthetic signal with every
+    method) and Figure 3 (a juggled ball, its fit and two derivatives, with Butterworth)."""
+    from mocapkit.plot import _save, plot_ppa, plt
+
+    paths = []
+    # Figure 1: a clean step through forward-backward Butterworth filters of order 2 and 4
+    n, fs = 300, 100.0
+    t = np.arange(n) / fs
+    step = (np.arange(n) >= n // 2).astype(float)
+    fig, ax = plt.subplots(figsize=(7, 3.2))
+    ax.plot(t, step, "k", lw=2, label="step")
+    for order in (2, 4):
+        yb = np.asarray(butterworth_filtfilt(step, fs, 5.0, order=order)).reshape(-1)
+        ax.plot(t, yb, label=f"filtfilt order {order}, 5 Hz: overshoot {100 * step_overshoot(yb, step):.1f} %")
+    pp = fit(t, step, 2, 0.01)
+    ax.plot(t, pp.evaluate(t)[:, 0], "--", color="tab:red", label="piecewise polynomial: overshoot "
+            f"{100 * step_overshoot(pp.evaluate(t)[:, 0], step):.1f} %")
+    ax.set_xlim(1.0, 2.0)
+    ax.legend(fontsize=7)
+    ax.set_title("Figure 1 effect: zero-phase Butterworth overshoots a step")
+    fig.tight_layout()
+    paths.append(_save(fig, out / "fig1_step_overshoot.png"))
+    # Figure 2
+    t, y, clean, true = synthetic_signal(seed=0)
+    fs = 1.0 / (t[1] - t[0])
+    fc, _ = winter_residual_cutoff(y, fs)
+    ex = fit(t, y, 2, None, "exact")
+    it = fit(t, y, 2, None, "iterative")
+    fig, ax = plt.subplots(figsize=(9, 3.8))
+    ax.plot(t, y, ".", ms=2, color="0.6", label="noisy signal")
+    ax.plot(t, clean, "k", lw=1, label="clean")
+    ax.plot(t, np.asarray(butterworth_filtfilt(y, fs, float(fc))).reshape(-1), color="tab:blue", lw=1,
+            label=f"Butterworth filtfilt, Winter fc = {float(fc):.1f} Hz")
+    ax.plot(t, np.asarray(smoothing_spline(t, y)[0]).reshape(-1), color="tab:purple", lw=1, label="smoothing spline (GCV)")
+    ax.plot(t, ex.evaluate(t)[:, 0], color="tab:red", lw=1.5, label=f"exact PPA, K = {ex.penalty:.3f}")
+    ax.plot(t, it.evaluate(t)[:, 0], "--", color="tab:orange", lw=1, label="iterative PPA")
+    for k in ex.parts[0].knots[1:-1]:
+        ax.axvline(t[k], color="tab:red", lw=0.6, alpha=0.5)
+    for k in true:
+        ax.plot(t[k], -0.35, "^", color="k", ms=5)
+    ax.legend(fontsize=7, ncol=2)
+    ax.set_title("Figure 2 signal: knots (red lines) vs true breakpoints (triangles)")
+    fig.tight_layout()
+    paths.append(_save(fig, out / "fig2_synthetic.png"))
+    # Figure 3
+    if markers is not None:
+        z = markers.positions[:, markers.labels.index(ball), 2]
+        tt = markers.times
+        sel = tt <= 5.0
+        r = fit(tt[sel], z[sel], 2, penalty, "exact")
+        fc, _ = winter_residual_cutoff(z[sel], markers.rate)
+        zb = np.asarray(butterworth_filtfilt(z[sel], markers.rate, float(fc))).reshape(-1)
+        vb = np.gradient(zb, tt[sel])
+        ab = np.gradient(vb, tt[sel])
+        paths.append(plot_ppa(tt[sel], z[sel], r, out / "fig3_juggling.png",
+                              title=f"juggled ball {ball}, Z (mm), O = 2, K = {penalty:g}; Butterworth fc = {float(fc):.1f} Hz",
+                              butter=(zb, vb, ab)))
+    return paths
