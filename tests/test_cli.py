@@ -34,7 +34,7 @@ def pelvis(tests_data) -> Path:
 def test_help_lists_every_command():
     r = run("--help")
     assert r.returncode == 0
-    for cmd in ("compress", "decompress", "stream", "sweep", "bench", "demo"):
+    for cmd in ("compress", "decompress", "stream", "sweep", "bench", "demo", "info", "convert", "filter", "filter-eval"):
         assert cmd in r.stdout
 
 
