@@ -183,3 +183,14 @@ def test_cli_filter_json_and_csv(tests_data, tmp_path):
     r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "filter", str(tsv), "--markers", "nope", "--auto"],
                        capture_output=True, text=True)
     assert r.returncode == 2 and "nope" in r.stderr
+
+
+def test_cli_filter_c3d_labels_with_colons(shared_data, tmp_path):
+    c3d = shared_data / "c3d" / "Vicon.c3d"
+    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "filter", str(c3d), "--markers",
+                        "Daphnee:ASISr,Daphnee:ASISr:z", "--auto", "--json"], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    recs = json.loads(r.stdout)
+    assert recs[0]["components"] == ["Daphnee:ASISr_x", "Daphnee:ASISr_y", "Daphnee:ASISr_z"]
+    assert recs[1]["components"] == ["Daphnee:ASISr_z"]
+    assert len(recs[0]["pieces"][0]["coeffs"]) == 3  # one polynomial per component, shared knots

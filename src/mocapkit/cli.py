@@ -342,7 +342,9 @@ def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
         mk = load_markers(input)
         wanted = [w.strip() for w in markers.split(",")] if markers else list(mk.labels)
         for w in wanted:
-            name, _, comp = w.partition(":")
+            # labels may contain ':' themselves (Vicon's "Subject:Marker"): a suffix is a component
+            # selection only when the whole string is not a label
+            name, comp = (w, "") if w in mk.labels else (w.rpartition(":")[0] or w, w.rpartition(":")[2] if ":" in w else "")
             if name not in mk.labels:
                 raise InvalidParameterError(f"{input}: no marker {name!r} (markers: {', '.join(mk.labels[:12])}...)")
             comps = comp.lower() or "xyz"
