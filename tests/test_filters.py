@@ -55,6 +55,31 @@ def test_exact_equals_brute_force_and_beats_iterative(seed):
     assert ex.loss <= it.loss + 1e-9
     ex2 = solve_exact(t, Y, order, K, incumbent=it)  # seeding with the iterative result changes nothing
     assert ex2.loss == pytest.approx(bf.loss, abs=1e-9)
+    ex3 = solve_exact(t, Y, order, K, incumbent=bf)  # the tightest incumbent: pruning at equality
+    assert ex3.loss == pytest.approx(bf.loss, abs=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_exact_with_nan_rows_equals_brute_force(seed):
+    rng = np.random.default_rng(500 + seed)
+    n = int(rng.integers(7, 14))
+    t, Y = random_piecewise(rng, n, 1)
+    Y[rng.choice(n, 2, replace=False)] = np.nan
+    K = float(rng.uniform(0.05, 1.0))
+    order = int(rng.integers(0, 2))
+    # brute force over knot sets whose chunks hold >= order+1 valid samples
+    valid = ~np.isnan(Y[:, 0])
+    best = None
+    for k in range(0, n):
+        for ks in itertools.combinations(range(1, n), k):
+            kn = [0, *ks, n]
+            if any(valid[a:b].sum() < order + 1 for a, b in zip(kn[:-1], kn[1:])):
+                continue
+            pp = build(t, Y, kn, order, K)
+            if best is None or pp.loss < best.loss - 1e-12:
+                best = pp
+    ex = solve_exact(t, Y, order, K)
+    assert ex.loss == pytest.approx(best.loss, abs=1e-9)
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -115,6 +140,10 @@ def test_nan_samples_and_long_gaps():
     r3 = fit(t, y, 2, 0.05, max_gap=0.1)
     assert len(r3.parts) == 2
     assert np.isnan(r3.evaluate(t[[230]])).all()
+    # a part too short to fit is reported, never dropped silently
+    y[262:300] = np.nan
+    r4 = fit(t, y, 2, 0.05, max_gap=0.1)
+    assert r4.unfitted == ((float(t[260]), float(t[261])),)
 
 
 def test_synthetic_breakpoints_exact_within_two_samples():

@@ -230,6 +230,7 @@ def test_gltf_valid_and_keyframes(tests_data, tmp_path, suffix):
     assert r.returncode == 0, r.stderr
     rep = json.loads(r.stdout.strip().splitlines()[-1])
     assert rep["numErrors"] == 0, rep["messages"]
+    assert rep["numWarnings"] == 0
     g = pygltflib.GLTF2().load(str(out))
     anim = g.animations[0]
     counts = {}

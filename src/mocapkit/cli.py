@@ -118,6 +118,7 @@ def compress(
     unit_cm: Annotated[
         Optional[float], typer.Option("--unit-cm", help="Skeletal input: centimetres per file length unit.")
     ] = None,
+    strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: Frames: mismatch is an error (default) or is recorded.")] = True,
 ) -> None:
     """Compress orientation streams (IMU files, sensor folders) or whole skeletons (BVH, AMC).
 
@@ -128,7 +129,7 @@ def compress(
 
     if kind_of(input) == "skeletal":
         _compress_skeletal(input, output, method, threshold, target_icr, max_position_error, max_angle,
-                           max_segment_length, rate, as_json, asf, unit_cm)
+                           max_segment_length, rate, as_json, asf, unit_cm, strict)
         return
     if max_position_error is not None or asf is not None or unit_cm is not None:
         raise InvalidParameterError("--max-position-error, --asf and --unit-cm apply to BVH/AMC input")
@@ -174,7 +175,7 @@ def compress(
 
 
 def _compress_skeletal(input, output, method, threshold, target_icr, max_position_error, max_angle,
-                       max_segment_length, rate, as_json, asf, unit_cm) -> None:
+                       max_segment_length, rate, as_json, asf, unit_cm, strict=True) -> None:
     from mocapkit.io.bvh import write_bvh
     from mocapkit.io.gltf import write_gltf
     from mocapkit.io.loaders import load_motion, unit_cm as find_unit
@@ -186,7 +187,7 @@ def _compress_skeletal(input, output, method, threshold, target_icr, max_positio
         raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-position-error")
     if output is not None and output.suffix.lower() not in (".glb", ".gltf", ".bvh"):
         raise InvalidParameterError(f"{output}: skeletal output is .glb, .gltf or .bvh")
-    motion = load_motion(input, asf=asf, rate=rate)
+    motion = load_motion(input, asf=asf, rate=rate, strict=strict)
     ucm, assumed = find_unit(motion, unit_cm)
     bound = None if max_position_error is None else max_position_error / ucm
     comp = compress_motion(
@@ -224,13 +225,14 @@ def info(
     asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
     rate: RateOpt = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
+    strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: a Frames: count that disagrees with the data is an error (default) or is recorded.")] = True,
 ) -> None:
     """Describe a motion file: joints, frames, rate, duration, channels, markers."""
     from mocapkit.io.loaders import kind_of, load_motion
 
     kind = kind_of(input)
     if kind == "skeletal":
-        m = load_motion(input, asf=asf, rate=rate)
+        m = load_motion(input, asf=asf, rate=rate, strict=strict)
         sk = m.skeleton
         rec = {
             "file": str(input), "kind": "skeletal", "frames": m.n_frames, "rate_hz": m.rate,
@@ -280,6 +282,7 @@ def convert(
     output: Annotated[Path, typer.Argument(help="BVH or AMC for skeletal input; CSV for markers.")],
     asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
     precision: Annotated[int, typer.Option("--precision", help="Decimals written to BVH.")] = 6,
+    strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: Frames: mismatch is an error (default) or is recorded.")] = True,
 ) -> None:
     """Convert AMC (with its ASF) to BVH and back (BVH + --asf to AMC), and markers (C3D, TSV) to CSV."""
     from mocapkit.io.loaders import kind_of, load_motion
@@ -292,14 +295,14 @@ def convert(
         if suffix == ".bvh":
             from mocapkit.io.bvh import write_bvh
 
-            m = load_motion(input, asf=asf)
+            m = load_motion(input, asf=asf, strict=strict)
             write_bvh(output, m, precision=precision)
         else:
             if asf is None or input.suffix.lower() != ".bvh":
                 raise InvalidParameterError("BVH -> AMC needs --asf (the skeleton the BVH was made from)")
             from mocapkit.io.amc import read_asf, write_amc
 
-            m = load_motion(input)
+            m = load_motion(input, strict=strict)
             try:
                 write_amc(output, m, read_asf(asf))
             except InvalidSignalError as e:  # a rotation the ASF's dofs cannot express: name the files
@@ -374,6 +377,14 @@ def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
     if not rows:
         raise MocapFormatError(str(input), None, "header only, no data rows")
     data = np.array(rows)
+    bad = np.flatnonzero(~(np.diff(data[:, 0]) > 0))
+    if bad.size or not np.all(np.isfinite(data[:, 0])):
+        i = int(bad[0]) + 1 if bad.size else int(np.flatnonzero(~np.isfinite(data[:, 0]))[0])
+        raise MocapFormatError(str(input), i + 2, f"time {data[i, 0]!r} is not after the previous row's; "
+                               "times must be finite and strictly increasing")
+    if np.isinf(data).any():
+        i = int(np.flatnonzero(np.isinf(data).any(axis=1))[0])
+        raise MocapFormatError(str(input), i + 2, "infinite value (leave a cell empty or write nan for a missing sample)")
     names = [c.strip() for c in columns.split(",")] if columns else header[1:]
     for c in names:
         if c not in header[1:]:
@@ -407,6 +418,9 @@ def filter_cmd(
     for name, t, Y, comps in signals:
         r = fit(t, Y, order, penalty, solver.value)
         results.append((name, t, Y, comps, r))
+        for a, b in r.unfitted:
+            err.print(f"warning: {name}: samples at {a:g}..{b:g} s lie between long gaps and are too few to "
+                      f"fit with order {order}: left out (NaN in the output)")
     if output is not None:
         from mocapkit.io.atomic import atomic_write_text
 

@@ -56,6 +56,7 @@ class FilterResult:
     order: int
     solver: str
     iterative_loss: float  # the iterative algorithm's loss (sum over parts), for the gap to the optimum
+    unfitted: tuple[tuple[float, float], ...] = ()  # time ranges of parts too short to fit (NaN out)
 
     @property
     def loss(self) -> float:
@@ -120,17 +121,19 @@ def fit(t, y, order: int = 2, penalty: float | None = None, solver: str = "exact
         max_gap = 10.0 * float(np.median(np.diff(t))) if t.shape[0] > 1 else 1.0
     K = auto_penalty(Y, order) if penalty is None else float(penalty)
     parts = []
+    unfitted = []
     it_loss = 0.0
     for a, b in split_at_gaps(t, Y, max_gap):
-        if b - a < order + 1:
-            continue  # too few samples to fit: left unfiltered (NaN in evaluate), reported by the caller
+        if int((~np.isnan(Y[a:b]).any(axis=1)).sum()) < order + 1:
+            unfitted.append((float(t[a]), float(t[b - 1])))  # too few samples: NaN in evaluate, reported
+            continue
         it, _ = fit_iterative(t[a:b], Y[a:b], order, K, init_chunk=init_chunk)
         it_loss += it.loss
         res = solve_exact(t[a:b], Y[a:b], order, K, incumbent=it) if solver == "exact" else it
         parts.append(_shift(res, a))
     if not parts:
         raise InvalidParameterError(f"no part of the signal has {order + 1} consecutive valid samples")
-    return FilterResult(tuple(parts), K, order, solver, it_loss)
+    return FilterResult(tuple(parts), K, order, solver, it_loss, tuple(unfitted))
 
 
 def _shift(pp: PiecewisePolynomial, a: int) -> PiecewisePolynomial:

@@ -41,10 +41,39 @@ def _dp(t, Y, order, K, L_star, kmax):
     rss = np.zeros(D)
     x = np.empty(p)
     y = np.empty(D)
-    lim_max = 0.0
-    for k in range(kmax + 1):
+    lim_max = 0.0  # for a chunk starting after sample 0 there is at least one knot: lim[1]
+    for k in range(1, kmax + 1):
         if lim[k] > lim_max:
             lim_max = lim[k]
+    # k = 0: the single chunk [0, e), by one forward scan
+    cnt = 0
+    span = t[n - 1] - t[0]
+    if span <= 0.0:
+        span = 1.0
+    for e in range(1, n + 1):
+        s = e - 1
+        ok = True
+        for d in range(D):
+            if Y[s, d] != Y[s, d]:
+                ok = False
+        if ok:
+            tau = (t[s] - t[0]) / span
+            v = 1.0
+            for j in range(p):
+                x[j] = v
+                v *= tau
+            for d in range(D):
+                y[d] = Y[s, d]
+            _add_row(R, qy, x, y, rss, p, D)
+            cnt += 1
+        if cnt >= p:
+            ssr = 0.0
+            for d in range(D):
+                ssr += rss[d]
+            bound0 = lim[0] if e == n else (lim[1] if kmax >= 1 else -1.0)
+            if ssr <= bound0:
+                C[0, e] = ssr
+                arg[0, e] = 0
     for e in range(1, n + 1):
         # scan chunk starts s = e-1, e-2, ... with the SSR of [s, e) updated one row at a time
         R[:, :] = 0.0
@@ -77,17 +106,16 @@ def _dp(t, Y, order, K, L_star, kmax):
                 ssr += rss[d]
             if ssr > lim_max:
                 break
+            # a state before the end (e < n) will need at least one more knot: its bound is lim[k+1]
             if s == 0:
-                if ssr <= lim[0] and ssr < C[0, e]:
-                    C[0, e] = ssr
-                    arg[0, e] = 0
-                continue
+                continue  # the single chunk [0, e) comes from the forward scan above
             for k in range(1, kmax + 1):
                 prev = C[k - 1, s]
                 if prev == INF:
                     continue
                 c = prev + ssr
-                if c <= lim[k] and c < C[k, e]:
+                bound = lim[k] if e == n else (lim[k + 1] if k < kmax else -1.0)
+                if c <= bound and c < C[k, e]:
                     C[k, e] = c
                     arg[k, e] = s
     return C, arg

@@ -262,7 +262,7 @@ def _parse_motion(lines, motion_line, n_channels, path, strict):
     if values.shape[0] != n_frames:
         msg = f"header says Frames: {n_frames} but {values.shape[0]} data lines follow"
         if strict:
-            raise MocapFormatError(path, first - 1, msg + " (read with strict=False to take the data lines)")
+            raise MocapFormatError(path, first - 1, msg + " (--no-strict, or strict=False, takes the data lines)")
         warn.append(msg + f"; took the {values.shape[0]} data lines")
     if values.shape[0] == 0:
         raise MocapFormatError(path, first, "no motion frames")
