@@ -49,6 +49,23 @@ def _add_row(R, qy, x, y, rss, p, D) -> None:
         rss[d] += y[d] * y[d]
 
 
+@numba.njit(cache=True, inline="always")
+def _add_sample(t, Y, i, t0, span, R, qy, x, y, rss, p, D) -> bool:
+    """Add sample ``i`` (basis ``((t_i − t0)/span)^j``) to the QR; ``False`` for a NaN row (skipped)."""
+    for d in range(D):
+        if Y[i, d] != Y[i, d]:
+            return False
+    tau = (t[i] - t0) / span
+    v = 1.0
+    for j in range(p):
+        x[j] = v
+        v *= tau
+    for d in range(D):
+        y[d] = Y[i, d]
+    _add_row(R, qy, x, y, rss, p, D)
+    return True
+
+
 @numba.njit(cache=True)
 def ssr_scan(t, Y, a, c, order, forward):
     """SSR of the chunks starting at ``a`` (``forward``) or ending at ``c`` (backward).
@@ -74,19 +91,7 @@ def ssr_scan(t, Y, a, c, order, forward):
     k = 0
     for m in range(1, n + 1):
         i = a + m - 1 if forward else c - m
-        ok = True
-        for d in range(D):
-            if Y[i, d] != Y[i, d]:
-                ok = False
-        if ok:
-            tau = (t[i] - t0) / span
-            v = 1.0
-            for j in range(p):
-                x[j] = v
-                v *= tau
-            for d in range(D):
-                y[d] = Y[i, d]
-            _add_row(R, qy, x, y, rss, p, D)
+        if _add_sample(t, Y, i, t0, span, R, qy, x, y, rss, p, D):
             k += 1
         tot = 0.0
         for d in range(D):

@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError
-from mocapkit.filters.chunks import PiecewisePolynomial, _add_row, as_2d, build
+from mocapkit.filters.chunks import PiecewisePolynomial, _add_sample, as_2d, build
 
 
 @numba.njit(cache=True)
@@ -51,20 +51,7 @@ def _dp(t, Y, order, K, L_star, kmax):
     if span <= 0.0:
         span = 1.0
     for e in range(1, n + 1):
-        s = e - 1
-        ok = True
-        for d in range(D):
-            if Y[s, d] != Y[s, d]:
-                ok = False
-        if ok:
-            tau = (t[s] - t[0]) / span
-            v = 1.0
-            for j in range(p):
-                x[j] = v
-                v *= tau
-            for d in range(D):
-                y[d] = Y[s, d]
-            _add_row(R, qy, x, y, rss, p, D)
+        if _add_sample(t, Y, e - 1, t[0], span, R, qy, x, y, rss, p, D):
             cnt += 1
         if cnt >= p:
             ssr = 0.0
@@ -85,19 +72,7 @@ def _dp(t, Y, order, K, L_star, kmax):
         if span <= 0.0:
             span = 1.0
         for s in range(e - 1, -1, -1):
-            ok = True
-            for d in range(D):
-                if Y[s, d] != Y[s, d]:
-                    ok = False
-            if ok:
-                tau = (t0 - t[s]) / span
-                v = 1.0
-                for j in range(p):
-                    x[j] = v
-                    v *= tau
-                for d in range(D):
-                    y[d] = Y[s, d]
-                _add_row(R, qy, x, y, rss, p, D)
+            if _add_sample(t, Y, s, t0, span, R, qy, x, y, rss, p, D):
                 cnt += 1
             if cnt < p:
                 continue
