@@ -25,48 +25,38 @@ def run_demo(out: Path, console) -> dict:
         tab.add_column(c, justify="right")
     results: dict = {}
     for method in ("fastsw", "sw", "cplr", "swing"):
-        pts = 0
-        sum_dev = 0.0
-        mx = 0.0
-        pmx = 0.0
-        for name, sig in signals.items():
-            comp = compress_to(sig, method, target_icr=TARGET_ICR, max_segment_length=1000)
-            m = evaluate(sig, comp)
-            pts += m.n_points
-            sum_dev += m.aad_deg * m.n_samples
-            mx = max(mx, m.max_deg)
-            pmx = max(pmx, m.point_max_deg)
-            d = out / f"icr{round(TARGET_ICR * 100)}-{method}"
-            _mk(d)
-            write_signal_csv(d / f"{name}.csv", comp.times, comp.values)
-        results[method] = {"points": pts, "icr": pts / n_samples, "aad_deg": sum_dev / n_samples, "max_deg": mx}
-        tab.add_row(method, str(pts), f"{pts / n_samples:.4f}", f"{sum_dev / n_samples:.3f}", f"{mx:.3f}", f"{pmx:.3g}")
+        r = _compress_all(signals, out / f"icr{round(TARGET_ICR * 100)}-{method}", method, target_icr=TARGET_ICR)
+        results[method] = {"points": r["points"], "icr": r["points"] / n_samples, "aad_deg": r["aad_deg"],
+                           "max_deg": r["max_deg"]}
+        tab.add_row(method, str(r["points"]), f"{r['points'] / n_samples:.4f}", f"{r['aad_deg']:.3f}",
+                    f"{r['max_deg']:.3f}", f"{r['point_max_deg']:.3g}")
     console.print(tab)
 
     tab2 = Table(title=f"guarantee: every sample within {MAX_ANGLE}° of the SLERP decode (verified)")
     for c in ("method", "points", "ICR", "AAD °", "max °"):
         tab2.add_column(c, justify="right")
     for method in ("anglesw", "fastsw"):
-        pts = 0
-        sum_dev = 0.0
-        mx = 0.0
-        for name, sig in signals.items():
-            comp = compress_to(sig, method, max_angle=MAX_ANGLE, max_segment_length=1000)
-            m = evaluate(sig, comp)
-            pts += m.n_points
-            sum_dev += m.aad_deg * m.n_samples
-            mx = max(mx, m.max_deg)
-            d = out / f"max{MAX_ANGLE:g}deg-{method}"
-            _mk(d)
-            write_signal_csv(d / f"{name}.csv", comp.times, comp.values)
+        r = _compress_all(signals, out / f"max{MAX_ANGLE:g}deg-{method}", method, max_angle=MAX_ANGLE)
         label = "anglesw (online)" if method == "anglesw" else "fastsw (threshold tuned)"
-        results[f"max_angle_{method}"] = {"points": pts, "max_deg": mx}
-        tab2.add_row(label, str(pts), f"{pts / n_samples:.4f}", f"{sum_dev / n_samples:.3f}", f"{mx:.3f}")
+        results[f"max_angle_{method}"] = {"points": r["points"], "max_deg": r["max_deg"]}
+        tab2.add_row(label, str(r["points"]), f"{r['points'] / n_samples:.4f}", f"{r['aad_deg']:.3f}",
+                     f"{r['max_deg']:.3f}")
     console.print(tab2)
     console.print(f"segment points written under {out}/ (CSV time,w,x,y,z; decode with `mocapkit decompress`)")
     return results
 
 
-def _mk(d: Path) -> bool:
-    d.mkdir(parents=True, exist_ok=True)
-    return True
+def _compress_all(signals: dict, folder: Path, method: str, **control) -> dict:
+    """Compress every sensor, write its points to ``folder``; pooled points, AAD, max and point max."""
+    folder.mkdir(parents=True, exist_ok=True)
+    pts, sum_dev, n, mx, pmx = 0, 0.0, 0, 0.0, 0.0
+    for name, sig in signals.items():
+        comp = compress_to(sig, method, max_segment_length=1000, **control)
+        m = evaluate(sig, comp)
+        pts += m.n_points
+        sum_dev += m.aad_deg * m.n_samples
+        n += m.n_samples
+        mx = max(mx, m.max_deg)
+        pmx = max(pmx, m.point_max_deg)
+        write_signal_csv(folder / f"{name}.csv", comp.times, comp.values)
+    return {"points": pts, "aad_deg": sum_dev / n, "max_deg": mx, "point_max_deg": pmx}

@@ -241,9 +241,15 @@ def read_asf_text(text: str, source: str = "<asf>", length_unit_cm: float | None
         if not (math.isfinite(cm) and cm > 0):
             raise InvalidParameterError(f"length_unit_cm must be a positive number, got {length_unit_cm!r}")
     src = str(source)
+    return _guarded(lambda state: _parse_asf(text, src, length_unit_cm, state), src)
+
+
+def _guarded(parse, src: str):
+    """Run ``parse(state)``; any other error it raises becomes a ``MocapFormatError`` at the line
+    ``state["line"]`` being read."""
     state = {"line": None}
     try:
-        return _parse_asf(text, src, length_unit_cm, state)
+        return parse(state)
     except MocapError as exc:
         if isinstance(exc, MocapFormatError):
             raise
@@ -663,16 +669,7 @@ def read_amc_text(text: str, skeleton: Skeleton, source: str = "<amc>", rate: fl
     r = _check_rate(rate)
     sk = _asf_of(skeleton)
     src = str(source)
-    state = {"line": None}
-    try:
-        return _parse_amc(text, src, sk, r, state)
-    except MocapError as exc:
-        if isinstance(exc, MocapFormatError):
-            raise
-        raise MocapFormatError(src, state["line"], str(exc)) from None
-    except (ValueError, IndexError, KeyError, TypeError, OverflowError, ZeroDivisionError,
-            UnicodeError) as exc:
-        raise MocapFormatError(src, state["line"], f"cannot parse: {exc}") from None
+    return _guarded(lambda state: _parse_amc(text, src, sk, r, state), src)
 
 
 def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> Motion:
