@@ -1,0 +1,462 @@
+"""The ARMA segmenter of the seed paper (Mei, Hu, Yang, Liu, Sensors 2021, 21, 5577).
+
+Every step of the paper, each as an explicit parameter with the paper's value as default:
+
+1. **Downsampling** (Sec. 6.1) by an integer factor ``downsample`` (every k-th frame; the paper gives
+   no factor: 4 takes 120 Hz mocap to 30 Hz).
+2. **Differencing** of each limb angle sequence, order ``diff_order`` = 2 (Sec. 5.1, Eq. 26).
+3. **Windows** of ``window`` = 100 samples (Sec. 5.2); a last partial window shorter than half a
+   window joins the one before it.
+4. **Stationarity test** per window (Sec. 4.2, Eq. 12): an augmented Dickey–Fuller test with a
+   constant and ``adf_lags`` lagged differences at level ``adf_alpha`` (MacKinnon 2010 critical
+   values); a window that fails is differenced once more (Sec. 5.2).
+5. **AR(MA) least-squares fit** (Eq. 16–22): AR(p) by ordinary least squares on the lagged design
+   of Eq. 20 with a constant ``c`` (Eq. 17); for q > 0 the MA part is fitted by the two-stage
+   least-squares method of Hannan and Rissanen (a long AR gives residual estimates ε̂, then θ_t is
+   regressed on p lags of θ and q lags of ε̂). All windows are solved at once by batched QR in NumPy.
+   The residual variance is Eq. 22, σ̂² = s(β̂)/(n − p) with n − p the fitted samples.
+6. **Order selection** by the fitness F(p, q) of Eq. 25, the mean squared one-step error of the
+   model on the whole differenced sequence of a limb. The paper searches (p, q) by particle swarm
+   optimisation (Eq. 23–24); an exhaustive search over the small grid ``p_range`` × ``q_range`` finds
+   the exact optimum PSO approximates, so it replaces it. Because in-sample F can only fall as the
+   order grows, the smallest p + q whose F is within ``order_rtol`` of the best is taken (our choice:
+   without it the search would always return the largest order of the grid).
+7. **R² per window** (Eq. 28–29) of the window's own fit against ``r2_min`` = 0.6: a window whose
+   R² is below the threshold holds a segmentation point.
+8. **Per-sample fitness SD** (Eq. 30–31) in each such window: the model M currently in use — the fit
+   of the preceding window, "is the current model suitable to continue to describe the subsequent
+   sequence" (Sec. 5.3) — predicts every sample one step ahead; a sample inside the 95 % prediction
+   interval θ̂ ± ``z``·σ̂ has SD = 1, one outside has
+   SD = ((1 − 0.95) + 0.5·R_MO) / (R_O + R_AN·(1 − R_O·w/w_M)),
+   with w = 2·z·σ̂ the width of the prediction interval and the paper's constants R_AN = 0.95,
+   R_MO = 0.01, R_O = 0.025, w_M = 30 (the flattened Eq. 31 read term by term; clipped to [0, 1]).
+   For one model every sample outside the interval gets the same SD (≈ 0.057 for w ≪ w_M). The first window, and a
+   window whose predecessor was differenced to another order, uses its own fit as M.
+9. **The cut** of a window is its sample of minimum fitness SD. All samples outside the interval
+   of one model have the same SD, so ties are broken (our choice; the paper does not say) by the
+   sample that best splits the window into "M fits" before and "M fails" from it on (the count of
+   SD = 1 samples before it plus SD < 1 samples from it), then by the larger standardised error.
+10. **Median ensemble over limbs** (Eq. 32). The paper takes the median of each row of the matrix
+    of per-limb cuts, which needs every limb to find the same number of cuts. We define: all cuts of
+    all limbs are pooled and sorted; neighbours closer than ``ensemble_tol`` samples join one group
+    (single linkage); a group with cuts from at least ``min_limbs`` different limbs gives one cut at
+    the median of its members (each limb first reduced to the median of its own members), other
+    groups are dropped. When all limbs find the same cuts in the same order within the tolerance,
+    this equals the paper's row-wise median.
+
+Cuts are returned as 0-based frames of the input (a downsampled sample ``t`` is input frame
+``t·downsample``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mocapkit.errors import InvalidParameterError
+from mocapkit.segment.base import Segmenter, as_signal, clean_cuts
+
+# MacKinnon (2010), "Critical values for cointegration tests", Table: τ_c (one variable, constant),
+# response-surface coefficients β∞, β1, β2, β3 for the 1 %, 5 % and 10 % levels.
+_ADF_C_CRIT = {
+    0.01: (-3.43035, -6.5393, -16.786, -79.433),
+    0.05: (-2.86154, -2.8903, -4.234, -40.040),
+    0.10: (-2.56677, -1.5384, -2.809, 0.0),
+}
+
+
+def adf_critical_value(nobs: int, alpha: float = 0.05) -> float:
+    """MacKinnon (2010) critical value of the ADF t statistic (constant, no trend) for ``nobs``."""
+    if alpha not in _ADF_C_CRIT:
+        raise InvalidParameterError(f"adf_alpha must be one of {sorted(_ADF_C_CRIT)}, got {alpha}")
+    b = _ADF_C_CRIT[alpha]
+    x = 1.0 / nobs
+    return b[0] + b[1] * x + b[2] * x * x + b[3] * x ** 3
+
+
+def _batched_ols(D: np.ndarray, y: np.ndarray):
+    """Least squares for a stack: ``D`` ``(K, m, k)``, ``y`` ``(K, m)`` → β ``(K, k)``, fitted ``(K, m)``.
+
+    Solved by QR (``R β = Qᵀ y``), not by the normal equations, so that it agrees with statsmodels'
+    pinv/QR-based OLS to rounding. Rank-deficient windows (e.g. a constant angle) fall back to
+    ``lstsq`` one by one.
+    """
+    Q, R = np.linalg.qr(D)
+    qty = np.einsum("kmi,km->ki", Q, y)
+    diag = np.abs(np.diagonal(R, axis1=1, axis2=2))
+    scale = np.maximum(diag.max(axis=1, initial=0.0), 1e-300)
+    ok = (diag > 1e-10 * scale[:, None]).all(axis=1)
+    beta = np.empty((D.shape[0], D.shape[2]))
+    if ok.any():
+        beta[ok] = np.linalg.solve(R[ok], qty[ok][..., None])[..., 0]
+    for k in np.flatnonzero(~ok):
+        beta[k] = np.linalg.lstsq(D[k], y[k], rcond=None)[0]
+    fitted = np.einsum("kmi,ki->km", D, beta)
+    return beta, fitted
+
+
+def _lagged(z: np.ndarray, p: int, start: int) -> np.ndarray:
+    """Design columns ``[z_{t-1}, ..., z_{t-p}]`` for ``t = start..m-1`` of each row of ``z`` ``(K, m)``."""
+    m = z.shape[1]
+    return np.stack([z[:, start - i:m - i] for i in range(1, p + 1)], axis=2) if p else np.empty((z.shape[0], m - start, 0))
+
+
+@dataclass(frozen=True)
+class ARMAFit:
+    """Least-squares AR(MA) fits of a stack of equal-length series.
+
+    ``coef`` ``(K, 1 + p + q)`` is ``[c, β_1..β_p, λ_1..λ_q]``; ``fitted`` and ``resid`` cover samples
+    ``start..m-1`` of each series; ``sigma2`` is Eq. 22 (SSR / fitted samples).
+    """
+
+    p: int
+    q: int
+    start: int
+    coef: np.ndarray
+    fitted: np.ndarray
+    resid: np.ndarray
+    sigma2: np.ndarray
+    long_coef: np.ndarray | None = None
+
+
+def fit_arma(z, p: int, q: int = 0, long_ar: int | None = None) -> ARMAFit:
+    """Least-squares ARMA(p, q) with a constant for each row of ``z`` (``(m,)`` or ``(K, m)``).
+
+    q = 0: ordinary least squares of Eq. 20–21 on samples ``p..m-1`` (as statsmodels ``AutoReg`` with
+    ``trend="c"``). q > 0: Hannan–Rissanen — residuals ε̂ of a long AR(``long_ar``, default
+    ``max(2(p + q), p + q + 2)``), then OLS of θ_t on ``[1, θ_{t-1..t-p}, ε̂_{t-1..t-q}]`` on the
+    samples where all lags exist.
+    """
+    z = np.atleast_2d(np.asarray(z, dtype=np.float64))
+    if p < 0 or q < 0 or p + q == 0:
+        raise InvalidParameterError(f"ARMA order needs p >= 0, q >= 0, p + q >= 1; got ({p}, {q})")
+    m = z.shape[1]
+    K = z.shape[0]
+    if q == 0:
+        start = p
+        if m - start < p + 2:
+            raise InvalidParameterError(f"{m} samples are too few for AR({p})")
+        D = np.concatenate([np.ones((K, m - start, 1)), _lagged(z, p, start)], axis=2)
+        y = z[:, start:]
+    else:
+        L = long_ar if long_ar is not None else max(2 * (p + q), p + q + 2)
+        first = fit_arma(z, L, 0)
+        eps = np.zeros_like(z)
+        eps[:, L:] = first.resid
+        start = L + q
+        if m - start < p + q + 2:
+            raise InvalidParameterError(f"{m} samples are too few for ARMA({p}, {q}) with a long AR({L})")
+        D = np.concatenate(
+            [np.ones((K, m - start, 1)), _lagged(z, max(p, 0), start), _lagged(eps, q, start)], axis=2
+        )
+        y = z[:, start:]
+    coef, fitted = _batched_ols(D, y)
+    resid = y - fitted
+    sigma2 = (resid ** 2).sum(axis=1) / resid.shape[1]
+    return ARMAFit(p=p, q=q, start=start, coef=coef, fitted=fitted, resid=resid, sigma2=sigma2,
+                   long_coef=None if q == 0 else first.coef)
+
+
+def predict_one_step(fit: ARMAFit, k: int, x: np.ndarray, history: np.ndarray) -> np.ndarray:
+    """One-step predictions of the samples of ``x`` by row ``k`` of ``fit``.
+
+    ``history`` holds the samples before ``x`` (at least the model's longest lag; the preceding
+    window). For q > 0 the innovations ε_{t-j} are taken, as in the fit, from the long AR of the
+    first Hannan–Rissanen stage, not from the recursion ε_t = θ_t − θ̂_t: after second-order
+    differencing the MA part has roots on the unit circle and that recursion does not forget its
+    start.
+    """
+    c = fit.coef[k, 0]
+    beta = fit.coef[k, 1:1 + fit.p]
+    lam = fit.coef[k, 1 + fit.p:]
+    lags = fit.p
+    if fit.q:
+        L = fit.long_coef.shape[1] - 1
+        lags = max(fit.p, L + fit.q)
+    if history.size < lags:
+        raise InvalidParameterError(f"one-step prediction needs {lags} samples of history, got {history.size}")
+    full = np.concatenate([history[history.size - lags:], x])
+    n = x.size
+    pred = np.full(n, c)
+    for i in range(1, fit.p + 1):
+        pred += beta[i - 1] * full[lags - i:lags - i + n]
+    if fit.q:
+        lc = fit.long_coef[k]
+        m = n + fit.q  # innovations for samples -q..n-1 of x
+        eps = full[lags - fit.q:].copy()
+        eps -= lc[0]
+        for i in range(1, L + 1):
+            eps -= lc[i] * full[lags - fit.q - i:lags - fit.q - i + m]
+        for j in range(1, fit.q + 1):
+            pred += lam[j - 1] * eps[fit.q - j:fit.q - j + n]
+    return pred
+
+
+def adf_statistic(z, lags: int) -> np.ndarray:
+    """Augmented Dickey–Fuller t statistic (constant, ``lags`` lagged differences) per row of ``z``.
+
+    Regression Δy_t = a + γ·y_{t-1} + Σ δ_i Δy_{t-i} + e_t; returns γ̂ / se(γ̂) (as statsmodels
+    ``adfuller(x, maxlag=lags, autolag=None, regression="c")``).
+    """
+    z = np.atleast_2d(np.asarray(z, dtype=np.float64))
+    dz = np.diff(z, axis=1)
+    m = dz.shape[1]
+    start = lags
+    K = z.shape[0]
+    cols = [z[:, start:m][..., None]]  # y_{t-1} for Δy_t = dz[:, t] (dz[t] = z[t+1] - z[t])
+    if lags:
+        cols.append(_lagged(dz, lags, start))
+    cols.append(np.ones((K, m - start, 1)))
+    D = np.concatenate(cols, axis=2)
+    y = dz[:, start:]
+    beta, fitted = _batched_ols(D, y)
+    resid = y - fitted
+    dof = D.shape[1] - D.shape[2]
+    s2 = (resid ** 2).sum(axis=1) / dof
+    # (Dᵀ D)^-1 [0, 0] via the QR factor: var(γ̂) = s² · ||R^-T e_0||²
+    _, R = np.linalg.qr(D)
+    e0 = np.zeros((K, D.shape[2]))
+    e0[:, 0] = 1.0
+    with np.errstate(all="ignore"):
+        u = np.linalg.solve(np.transpose(R, (0, 2, 1)), e0[..., None])[..., 0]
+        se = np.sqrt(s2 * (u ** 2).sum(axis=1))
+        return beta[:, 0] / se
+
+
+class ARMASegmenter(Segmenter):
+    """Unsupervised segmentation of limb angle sequences by AR(MA) fitness (the seed paper).
+
+    Parameters
+    ----------
+    downsample
+        Keep every ``downsample``-th frame (Sec. 6.1; no factor in the paper).
+    diff_order
+        Order of differencing before modelling (Sec. 5.1: 2).
+    window
+        Window length in (downsampled) samples (Sec. 5.2: 100).
+    adf_lags, adf_alpha
+        Lagged differences and level of the per-window ADF stationarity test (Sec. 4.2).
+    p_range, q_range
+        The (p, q) grid searched exhaustively by the fitness F of Eq. 25 (replaces the PSO).
+    order_rtol
+        The smallest p + q with F within this relative margin of the best F is chosen.
+    r2_min
+        R² threshold of Eq. 29 (0.6): windows below it hold a cut.
+    z
+        Half-width of the prediction interval in σ (Eq. 30: 1.96 for 95 %).
+    r_an, r_mo, r_o, w_m
+        The constants of Eq. 31 (0.95, 0.01, 0.025, 30).
+    ensemble_tol
+        Cuts of different limbs closer than this many samples are the same cut (Eq. 32 grouping).
+    min_limbs
+        A grouped cut is kept when found by at least this many limbs (capped at the channel count).
+    """
+
+    def __init__(
+        self,
+        downsample: int = 4,
+        diff_order: int = 2,
+        window: int = 100,
+        adf_lags: int = 4,
+        adf_alpha: float = 0.05,
+        p_range: tuple[int, ...] = (1, 2, 3, 4),
+        q_range: tuple[int, ...] = (0, 1, 2),
+        order_rtol: float = 0.01,
+        r2_min: float = 0.6,
+        z: float = 1.96,
+        r_an: float = 0.95,
+        r_mo: float = 0.01,
+        r_o: float = 0.025,
+        w_m: float = 30.0,
+        ensemble_tol: int = 50,
+        min_limbs: int = 2,
+    ):
+        if int(downsample) != downsample or downsample < 1:
+            raise InvalidParameterError(f"downsample must be a positive integer, got {downsample}")
+        if int(diff_order) != diff_order or not 0 <= diff_order <= 3:
+            raise InvalidParameterError(f"diff_order must be 0..3, got {diff_order}")
+        if int(window) != window or window < 20:
+            raise InvalidParameterError(f"window must be an integer >= 20, got {window}")
+        if not p_range or min(p_range) < 0 or not q_range or min(q_range) < 0:
+            raise InvalidParameterError("p_range and q_range must be non-empty and non-negative")
+        if max(p_range) + 2 * max(q_range) + 2 * (max(p_range) + max(q_range)) >= window // 2:
+            raise InvalidParameterError(f"orders p <= {max(p_range)}, q <= {max(q_range)} are too large for windows of {window}")
+        if not 0 < r2_min < 1:
+            raise InvalidParameterError(f"r2_min must be in (0, 1), got {r2_min}")
+        if z <= 0 or w_m <= 0 or not 0 <= r_o <= 1 or not 0 <= r_an <= 1 or not 0 <= r_mo <= 1:
+            raise InvalidParameterError("z, w_m must be positive and r_an, r_mo, r_o probabilities")
+        if ensemble_tol < 0 or min_limbs < 1:
+            raise InvalidParameterError("ensemble_tol must be >= 0 and min_limbs >= 1")
+        if adf_lags < 0:
+            raise InvalidParameterError(f"adf_lags must be >= 0, got {adf_lags}")
+        adf_critical_value(100, adf_alpha)  # validates adf_alpha
+        self.downsample = int(downsample)
+        self.diff_order = int(diff_order)
+        self.window = int(window)
+        self.adf_lags = int(adf_lags)
+        self.adf_alpha = adf_alpha
+        self.p_range = tuple(int(p) for p in p_range)
+        self.q_range = tuple(int(q) for q in q_range)
+        self.order_rtol = float(order_rtol)
+        self.r2_min = float(r2_min)
+        self.z = float(z)
+        self.r_an, self.r_mo, self.r_o, self.w_m = float(r_an), float(r_mo), float(r_o), float(w_m)
+        self.ensemble_tol = int(ensemble_tol)
+        self.min_limbs = int(min_limbs)
+
+    # -- steps -------------------------------------------------------------------------------
+    def windows(self, m: int) -> list[tuple[int, int]]:
+        """Window bounds (half-open) over ``m`` differenced samples (step 3)."""
+        W = self.window
+        bounds = [(s, min(s + W, m)) for s in range(0, m, W)]
+        if len(bounds) > 1 and bounds[-1][1] - bounds[-1][0] < W // 2:
+            last = bounds.pop()
+            bounds[-1] = (bounds[-1][0], last[1])
+        return bounds
+
+    def select_order(self, z: np.ndarray) -> tuple[tuple[int, int], dict]:
+        """Exhaustive (p, q) search by the fitness F of Eq. 25 on the whole series ``z`` (step 6)."""
+        F = {}
+        for p in self.p_range:
+            for q in self.q_range:
+                if p + q == 0:
+                    continue
+                f = fit_arma(z, p, q)
+                F[(p, q)] = float(np.mean(f.resid[0] ** 2))
+        best = min(F.values())
+        ok = [o for o, v in F.items() if v <= best * (1 + self.order_rtol) + 1e-300]
+        order = min(ok, key=lambda o: (o[0] + o[1], o[1], o[0]))
+        return order, F
+
+    def sd(self, err: np.ndarray, sigma: float) -> np.ndarray:
+        """Fitness SD of Eq. 31 for prediction errors ``err`` of a model with residual SD ``sigma``."""
+        width = 2 * self.z * sigma
+        outside = ((1 - 0.95) + 0.5 * self.r_mo) / (self.r_o + self.r_an * (1 - self.r_o * width / self.w_m))
+        outside = min(max(outside, 0.0), 1.0)
+        return np.where(np.abs(err) <= self.z * sigma, 1.0, outside)
+
+    @staticmethod
+    def _cut_in(sd: np.ndarray, score_err: np.ndarray) -> int:
+        """Index of the cut in one window: a sample of minimum SD (step 9).
+
+        Ties — every sample outside the interval of one model has the same SD — go to the sample
+        that best splits the window into "the model fits" before and "it does not" after (most
+        samples with SD = 1 before it plus samples with SD < 1 from it on), then to the larger
+        standardised error.
+        """
+        fits = sd >= 1.0
+        before = np.concatenate([[0], np.cumsum(fits)[:-1]])
+        after = np.cumsum((~fits)[::-1])[::-1]
+        split = before + after
+        return int(np.lexsort((-score_err, -split, sd))[0])
+
+    def _channel(self, x: np.ndarray) -> dict:
+        """Steps 2–9 on one downsampled channel; cut positions are downsampled sample indices."""
+        d = self.diff_order
+        z = np.diff(x, n=d) if d else x.copy()  # z[i] belongs to sample i + d
+        bounds = self.windows(z.size)
+        # step 4: stationarity per window; windows failing it are differenced once more
+        extra = np.zeros(len(bounds), dtype=bool)
+        full = [b for b in bounds if b[1] - b[0] == self.window]
+        if self.adf_lags + 5 < self.window:
+            for k, (s, e) in enumerate(bounds):
+                seg = z[s:e]
+                if np.ptp(seg) == 0:
+                    continue
+                stat = adf_statistic(seg, self.adf_lags)[0]
+                nobs = seg.size - 1 - self.adf_lags
+                extra[k] = not (stat < adf_critical_value(nobs, self.adf_alpha))
+        del full
+        # step 6: order by F (Eq. 25) on the whole differenced sequence
+        (p, q), F = self.select_order(z)
+        # step 5/7: per-window fits and R² (Eq. 28-29), batched per window length and differencing
+        series = []
+        for k, (s, e) in enumerate(bounds):
+            seg = z[s:e]
+            series.append((np.diff(seg), s + 1) if extra[k] else (seg, s))
+        fits: list = [None] * len(bounds)
+        groups: dict[int, list[int]] = {}
+        for k, (seg, _) in enumerate(series):
+            groups.setdefault(seg.size, []).append(k)
+        for _, ks in groups.items():
+            stack = np.stack([series[k][0] for k in ks])
+            f = fit_arma(stack, p, q)
+            for row, k in enumerate(ks):
+                fits[k] = (f, row)
+        r2 = np.empty(len(bounds))
+        for k, (seg, off) in enumerate(series):
+            f, row = fits[k]
+            y = seg[f.start:]
+            sst = float(((y - y.mean()) ** 2).sum())
+            sse = float((f.resid[row] ** 2).sum())
+            r2[k] = 1.0 - sse / sst if sst > 0 else 1.0
+        # steps 8-9: fitness SD and the cut in windows below the R² threshold
+        sd_all = np.ones(z.size + d)
+        cuts = []
+        for k in np.flatnonzero(r2 < self.r2_min):
+            seg, off = series[k]
+            use_prev = k > 0 and extra[k] == extra[k - 1]
+            if use_prev:
+                f, row = fits[k - 1]
+                pred = predict_one_step(f, row, seg, series[k - 1][0])
+                err = seg - pred
+                idx = np.arange(seg.size)
+            else:
+                f, row = fits[k]
+                err = f.resid[row]
+                idx = np.arange(f.start, seg.size)
+            sigma = float(np.sqrt(f.sigma2[row]))
+            if sigma == 0:
+                sigma = np.finfo(float).tiny
+            sd = self.sd(err, sigma)
+            best = idx[self._cut_in(sd, np.abs(err) / sigma)]
+            pos = off + best + d  # back to the downsampled sample index
+            sd_all[off + idx + d] = sd
+            cuts.append(int(pos))
+        return {"order": (p, q), "F": F, "r2": r2, "bounds": bounds, "extra": extra, "sd": sd_all, "cuts": cuts}
+
+    def ensemble(self, limb_cuts: list[list[int]], n_channels: int | None = None) -> list[int]:
+        """Median ensemble of per-limb cuts (Eq. 32, grouping rule in the module docstring)."""
+        need = min(self.min_limbs, n_channels if n_channels is not None else len(limb_cuts))
+        pooled = sorted((c, i) for i, cs in enumerate(limb_cuts) for c in cs)
+        out = []
+        group: list[tuple[int, int]] = []
+
+        def close(g):
+            limbs: dict[int, list[int]] = {}
+            for c, i in g:
+                limbs.setdefault(i, []).append(c)
+            if len(limbs) >= need:
+                out.append(int(round(float(np.median([np.median(v) for v in limbs.values()])))))
+
+        for c, i in pooled:
+            if group and c - group[-1][0] > self.ensemble_tol:
+                close(group)
+                group = []
+            group.append((c, i))
+        if group:
+            close(group)
+        return out
+
+    # -- API -----------------------------------------------------------------------------------
+    def fit(self, X) -> "ARMASegmenter":
+        X = as_signal(X)
+        n = X.shape[0]
+        x = X[:: self.downsample]
+        need = self.window // 2 + self.diff_order + 1
+        if x.shape[0] < need:
+            raise InvalidParameterError(
+                f"{n} frames give {x.shape[0]} samples after downsampling by {self.downsample}; the ARMA "
+                f"segmenter needs at least {need}"
+            )
+        self.n_frames_ = n
+        self.channels_ = [self._channel(x[:, j]) for j in range(x.shape[1])]
+        limb = [ch["cuts"] for ch in self.channels_]
+        merged = self.ensemble(limb, x.shape[1])
+        self.limb_cuts_ = [clean_cuts(np.asarray(c) * self.downsample, n) for c in limb]
+        self.cuts_ = clean_cuts(np.asarray(merged, dtype=np.int64) * self.downsample, n)
+        return self
+
+    def predict(self) -> np.ndarray:
+        return self.cuts_.copy()
