@@ -674,6 +674,154 @@ def demo(
     run_demo(out, err)
 
 
+class SegMethod(str, Enum):
+    arma = "arma"
+    pca = "pca"
+    kmeans = "kmeans"
+    mlp = "mlp"
+    kernelcpd = "kernelcpd"
+    pelt = "pelt"
+    clasp = "clasp"
+
+
+def _read_reference(path: Path, n_frames: int, rate_hz: float):
+    """A labels file: CMU-86 HACA (``label a b c`` lines after a header) or mocap6 per-frame labels."""
+    from mocapkit.io.labels import read_frame_labels, read_haca_labels
+
+    lines = [ln.split() for ln in Path(path).read_text(errors="replace").splitlines() if ln.strip()]
+    haca = len(lines) >= 2 and len(lines[1]) == 4 and not lines[1][0].lstrip("-").isdigit()
+    if haca:
+        return read_haca_labels(path, n_frames=n_frames, rate_hz=rate_hz)
+    return read_frame_labels(path, n_frames=n_frames, rate_hz=rate_hz)
+
+
+def _pairs(items: Optional[list[str]], what: str) -> list[tuple[str, str]]:
+    out = []
+    for it in items or []:
+        if "=" not in it:
+            raise InvalidParameterError(f"{what}: expected A=B, got {it!r}")
+        a, b = it.split("=", 1)
+        out.append((a.strip(), b.strip()))
+    return out
+
+
+@app.command()
+def segment(
+    input: Annotated[Path, typer.Argument(help="BVH file, or AMC (with --asf or a CMU-named ASF beside it).")],
+    asf: Annotated[Optional[Path], typer.Option("--asf", help="ASF skeleton for an AMC file.")] = None,
+    method: Annotated[SegMethod, typer.Option("--method", "-m", help="Segmentation method.")] = SegMethod.arma,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the cuts as JSON.")] = False,
+    plot: Annotated[Optional[Path], typer.Option("--plot", help="PNG: the 4 limb angles with the cuts.")] = None,
+    labels: Annotated[Optional[Path], typer.Option("--labels", help="Reference labels (CMU-86 HACA or mocap6 per-frame): scored and plotted.")] = None,
+    joint: Annotated[Optional[list[str]], typer.Option("--joint", help="ROLE=JOINT overrides of the joint map (e.g. spine=Spine3).")] = None,
+    train: Annotated[Optional[list[str]], typer.Option("--train", help="MOTION=LABELS takes to train --method mlp on (repeat).")] = None,
+    rate: Annotated[Optional[float], typer.Option("--rate", help="Frame rate of an AMC file (default 120 Hz).")] = None,
+) -> None:
+    """Cut a take into actions from its limb-bone angles (the ARMA method or a baseline)."""
+    from mocapkit.io.loaders import load_motion
+    from mocapkit.segment.features import LIMB_NAMES, motion_features, pose_features
+
+    motion = load_motion(input, asf=asf, rate=rate)
+    jmap = dict(_pairs(joint, "--joint"))
+    feats = motion_features(motion, jmap)
+    m = method.value
+    if m == "arma":
+        from mocapkit.segment.arma import ARMASegmenter
+
+        seg = ARMASegmenter()
+    else:
+        from mocapkit.segment.baselines import BASELINES
+
+        kw = {}
+        if m == "mlp":
+            if not train:
+                raise InvalidParameterError("--method mlp is supervised: give labelled takes with --train MOTION=LABELS")
+            data = []
+            for mot, lab in _pairs(train, "--train"):
+                tm = load_motion(mot, asf=asf, rate=rate)
+                ref = _read_reference(Path(lab), tm.n_frames, tm.rate)
+                data.append((motion_features(tm, jmap).limbs, np.asarray(ref.labels, dtype=object)[ref.frame_labels()]))
+            kw["train"] = data
+        elif train:
+            raise InvalidParameterError("--train is only for --method mlp")
+        seg = BASELINES[m](**kw)
+    X = pose_features(motion) if m == "pca" else feats.limbs
+    cuts = seg.fit_predict(X)
+    rate_hz = float(motion.rate)
+    ref = _read_reference(labels, motion.n_frames, rate_hz) if labels is not None else None
+    if as_json:
+        rec = {"method": m, "n_frames": motion.n_frames, "rate_hz": rate_hz,
+               "cuts": [{"frame": int(c), "time_s": float(c) / rate_hz} for c in cuts]}
+        if ref is not None:
+            from mocapkit.evaluation.segmentation import score
+
+            rec["reference_cuts"] = [int(c) for c in ref.cuts]
+            rec["scores"] = score(cuts, ref)
+        print(json.dumps(rec, indent=1))
+    else:
+        Console().print(f"{input.name}: {len(cuts)} cuts ({m}, {motion.n_frames} frames at {rate_hz:g} Hz)")
+        tab = Table()
+        tab.add_column("cut", justify="right")
+        tab.add_column("frame", justify="right")
+        tab.add_column("time (s)", justify="right")
+        for i, c in enumerate(cuts, 1):
+            tab.add_row(str(i), str(int(c)), f"{c / rate_hz:.3f}")
+        Console().print(tab)
+        if ref is not None:
+            from mocapkit.evaluation.segmentation import score
+
+            sc = score(cuts, ref)
+            Console().print(f"against {labels.name}: RI {sc['ri']:.3f}, F1 {sc['f1']:.3f} "
+                            f"(P {sc['precision']:.3f}, R {sc['recall']:.3f}), Covering {sc['covering']:.3f}")
+    if plot is not None:
+        from mocapkit.plot import plot_segmentation
+
+        plot_segmentation(feats.limbs, rate_hz, cuts, plot, ref_cuts=None if ref is None else ref.cuts,
+                          names=list(LIMB_NAMES), title=f"{input.name}: {m}")
+        err.print(f"wrote {plot}")
+
+
+@app.command("segment-bench")
+def segment_bench(
+    data: Annotated[Path, typer.Option("--data", help="The shared data folder (cmu/ and tssb/).")] = Path("../shared/data"),
+    out: Annotated[Optional[Path], typer.Option("--out", help="Folder for segment_bench.json and .md.")] = None,
+    as_json: Annotated[bool, typer.Option("--json", help="Print all rows as JSON.")] = False,
+    methods: Annotated[str, typer.Option("--methods", help="Comma-separated methods.")] = "arma,pca,kmeans,mlp,kernelcpd,pelt,clasp",
+    tssb: Annotated[bool, typer.Option("--tssb/--no-tssb", help="Also run the 75 TSSB series.")] = True,
+    tssb_limit: Annotated[Optional[int], typer.Option("--tssb-limit", help="Only the first N TSSB series.")] = None,
+    known_k: Annotated[bool, typer.Option("--known-k", help="Add rows given the true number of cuts (separate mode).")] = False,
+) -> None:
+    """Every segmentation method on the labelled CMU takes and on TSSB: RI, F1, Covering, seconds."""
+    from mocapkit.evaluation.segmentation import MOCAP_METHODS, TSSB_METHODS, markdown, run_mocap, run_tssb, summarise
+
+    ms = [m.strip() for m in methods.split(",") if m.strip()]
+    bad = [m for m in ms if m not in MOCAP_METHODS]
+    if bad:
+        raise InvalidParameterError(f"unknown method(s) {bad}; choose from {', '.join(MOCAP_METHODS)}")
+    cmu_dir, tssb_dir = data / "cmu", data / "tssb"
+    if not cmu_dir.is_dir():
+        raise InvalidParameterError(f"{cmu_dir} not found: give the shared data folder with --data")
+    log = (lambda s: err.print(s)) if not as_json else None
+    rows = run_mocap(cmu_dir, ms, known_k=known_k, log=log)
+    trows = []
+    if tssb:
+        if not tssb_dir.is_dir():
+            raise InvalidParameterError(f"{tssb_dir} not found (or use --no-tssb)")
+        trows = run_tssb(tssb_dir, [m for m in ms if m in TSSB_METHODS], limit=tssb_limit, log=log)
+    md = markdown(rows, trows)
+    if out is not None:
+        from mocapkit.io.atomic import atomic_write_text
+
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out / "segment_bench.json", json.dumps({"cmu": rows, "tssb": trows,
+                                                                  "summary": summarise(rows, trows)}, indent=1))
+        atomic_write_text(out / "segment_bench.md", md)
+    if as_json:
+        print(json.dumps({"cmu": rows, "tssb": trows, "summary": summarise(rows, trows)}, indent=1))
+    else:
+        print(md)
+
+
 def main() -> None:
     try:
         app()

@@ -106,3 +106,24 @@ def plot_ppa(t, y, result, path, title: str = "", butter=None) -> "Path":
     axes[0].set_title(title + "  (knots: green lines)")
     fig.tight_layout()
     return _save(fig, path)
+
+
+def plot_segmentation(limbs, rate_hz: float, cuts, path, ref_cuts=None, names=None, title: str = "") -> Path:
+    """The 4 limb angle sequences (Table 3) with the found cuts (solid) and reference cuts (dashed)."""
+    limbs = np.asarray(limbs, dtype=float)
+    names = names or [f"channel {i}" for i in range(limbs.shape[1])]
+    t = np.arange(limbs.shape[0]) / rate_hz
+    fig, axes = plt.subplots(limbs.shape[1], 1, figsize=(11, 1.8 * limbs.shape[1] + 0.6), sharex=True, squeeze=False)
+    for i, ax in enumerate(axes[:, 0]):
+        ax.plot(t, limbs[:, i], lw=0.8, color="tab:blue")
+        ax.set_ylabel(f"{names[i]}\n(deg)", fontsize=8)
+        for k, c in enumerate(cuts):
+            ax.axvline(c / rate_hz, color="tab:red", lw=1.2, label="found cut" if (i == 0 and k == 0) else None)
+        for k, c in enumerate(ref_cuts if ref_cuts is not None else []):
+            ax.axvline(c / rate_hz, color="k", ls="--", lw=1.0, label="reference cut" if (i == 0 and k == 0) else None)
+    axes[0, 0].legend(loc="upper right", fontsize=8)
+    axes[-1, 0].set_xlabel("time (s)")
+    if title:
+        axes[0, 0].set_title(title)
+    fig.tight_layout()
+    return _save(fig, path)

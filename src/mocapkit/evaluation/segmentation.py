@@ -1,0 +1,231 @@
+"""The segmentation benchmark: every method on every labelled shared take and on TSSB.
+
+Mocap takes (``../shared/data/cmu``): 86_01 with its HACA labels (86.asf), and the mocap6 takes
+13_29, 13_30, 14_14 with per-frame labels (86.asf as an approximate skeleton: same bone names and
+DOFs). Every method sees the 4 limb angles of Table 3 at 120 Hz, except PCA, which sees the pose
+(root-relative joint positions) as in Barbič et al. 2004. The MLP is trained leave-one-take-out on
+the other three takes' per-frame action labels. No method is told the number of cuts; the
+``known_k`` rows (when asked for) are a separate mode that is given it.
+
+TSSB (``../shared/data/tssb``): the 75 univariate series, methods applied to the raw series (PCA and
+K-means on a delay embedding of the benchmark's window width), Covering per series next to the
+published Covering of ClaSP, FLOSS, BinSeg, PELT (``published-covering-unknown-segments.csv``).
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mocapkit.errors import MocapFormatError
+from mocapkit.io.labels import Reference, read_frame_labels, read_haca_labels
+from mocapkit.segment.metrics import accuracy_ri, covering, f1_margin
+
+MOCAP_TAKES = ("86_01", "13_29", "13_30", "14_14")
+MOCAP_METHODS = ("arma", "pca", "kmeans", "mlp", "kernelcpd", "pelt", "clasp")
+TSSB_METHODS = ("arma", "pca", "kmeans", "kernelcpd", "pelt", "clasp")
+KNOWN_K_METHODS = ("kernelcpd", "clasp")
+PUBLISHED = ("ClaSP", "FLOSS", "BinSeg", "PELT")
+#: F1 margin in frames at 120 Hz (0.5 s); 86_01 cuts also count inside the annotators' a..c interval.
+MARGIN_FRAMES = 60
+
+
+@dataclass
+class Take:
+    name: str
+    limbs: np.ndarray
+    pose: np.ndarray
+    ref: Reference
+    actions: np.ndarray  # per-frame action label
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.limbs.shape[0])
+
+
+def load_take(cmu_dir: Path, name: str) -> Take:
+    """Features and reference of one shared CMU take."""
+    from mocapkit.io.loaders import load_motion
+    from mocapkit.segment.features import motion_features, pose_features
+
+    motion = load_motion(cmu_dir / f"{name}.amc", asf=cmu_dir / "86.asf")
+    n = motion.n_frames
+    lab = cmu_dir / f"{name}.labels.txt"
+    ref = read_haca_labels(lab, n_frames=n) if name.startswith("86_") else read_frame_labels(lab, n_frames=n)
+    feats = motion_features(motion)
+    actions = np.asarray(ref.labels, dtype=object)[ref.frame_labels()]
+    return Take(name, feats.limbs, pose_features(motion), ref, actions)
+
+
+def make_segmenter(method: str, take: Take | None = None, others: list[Take] | None = None, n_cuts: int | None = None):
+    """A segmenter with the benchmark's settings (the library defaults; MLP trained on ``others``)."""
+    from mocapkit.segment.arma import ARMASegmenter
+    from mocapkit.segment.baselines import BASELINES
+
+    if method == "arma":
+        return ARMASegmenter()
+    cls = BASELINES[method]
+    kw = {}
+    if method == "mlp":
+        kw["train"] = [(t.limbs, t.actions) for t in (others or [])]
+    if n_cuts is not None:
+        kw["n_cuts"] = n_cuts
+    return cls(**kw)
+
+
+def score(pred, ref: Reference, margin: int = MARGIN_FRAMES) -> dict:
+    n = ref.n_frames
+    f = f1_margin(pred, ref.cuts, n, margin, intervals=ref.intervals)
+    return {
+        "ri": accuracy_ri(pred, ref.cuts, n),
+        "f1": f.f1,
+        "precision": f.precision,
+        "recall": f.recall,
+        "covering": covering(pred, ref.cuts, n),
+    }
+
+
+def run_mocap(cmu_dir: Path, methods=MOCAP_METHODS, known_k: bool = False, log=None) -> list[dict]:
+    """Every method on every labelled take: one row per (take, method)."""
+    takes = [load_take(cmu_dir, t) for t in MOCAP_TAKES]
+    rows = []
+    jobs = [(m, None) for m in methods] + ([(m, "known_k") for m in KNOWN_K_METHODS if m in methods] if known_k else [])
+    for take in takes:
+        others = [t for t in takes if t is not take]
+        for method, mode in jobs:
+            k = len(take.ref.cuts) if mode == "known_k" else None
+            seg = make_segmenter(method, take, others, n_cuts=k)
+            X = take.pose if method == "pca" else take.limbs
+            t0 = time.perf_counter()
+            pred = seg.fit_predict(X)
+            dt = time.perf_counter() - t0
+            row = {"dataset": "cmu", "take": take.name, "method": method, "mode": mode or "unknown_k",
+                   "n_frames": take.n_frames, "n_ref_cuts": int(len(take.ref.cuts)), "n_cuts": int(len(pred)),
+                   "cuts": [int(c) for c in pred], "ref_cuts": [int(c) for c in take.ref.cuts], "seconds": dt}
+            row.update(score(pred, take.ref))
+            rows.append(row)
+            if log:
+                log(f"{take.name} {method}{' (known k)' if mode else ''}: RI {row['ri']:.3f} F1 {row['f1']:.3f} "
+                    f"Cov {row['covering']:.3f} cuts {len(pred)}/{len(take.ref.cuts)} {dt:.2f} s")
+    return rows
+
+
+def read_tssb(tssb_dir: Path) -> list[tuple[str, np.ndarray, int, np.ndarray]]:
+    """``(name, series, window, change points)`` of every series listed in ``desc.txt``."""
+    desc = tssb_dir / "desc.txt"
+    out = []
+    for ln, line in enumerate(desc.read_text().splitlines(), 1):
+        if not line.strip():
+            continue
+        parts = line.strip().split(",")
+        try:
+            name, w, cps = parts[0], int(parts[1]), np.array([int(v) for v in parts[2:]], dtype=np.int64)
+        except (ValueError, IndexError):
+            raise MocapFormatError(desc, ln, "expected name,window,changepoint,...") from None
+        x = np.loadtxt(tssb_dir / f"{name}.txt", dtype=np.float64)
+        out.append((name, x, w, cps))
+    return out
+
+
+def read_published(tssb_dir: Path) -> dict[str, dict[str, float]]:
+    with open(tssb_dir / "published-covering-unknown-segments.csv", newline="") as fh:
+        return {r["dataset"]: {k: float(v) for k, v in r.items() if k != "dataset"} for r in csv.DictReader(fh)}
+
+
+def _embed(x: np.ndarray, w: int) -> tuple[np.ndarray, int]:
+    """Delay embedding of width ``w`` (rows ``x[i:i+w]``) and the offset mapping a row to its centre."""
+    w = max(2, min(w, x.size // 4))
+    return np.lib.stride_tricks.sliding_window_view(x, w).copy(), w // 2
+
+
+def tssb_segmenter(method: str):
+    from mocapkit.segment.arma import ARMASegmenter
+    from mocapkit.segment.baselines import BASELINES
+
+    if method == "arma":
+        return ARMASegmenter(downsample=1)
+    return BASELINES[method]()
+
+
+def run_tssb(tssb_dir: Path, methods=TSSB_METHODS, limit: int | None = None, log=None) -> list[dict]:
+    """Covering of every method on every TSSB series (raw series; PCA/K-means on a delay embedding)."""
+    series = read_tssb(tssb_dir)[:limit]
+    published = read_published(tssb_dir)
+    rows = []
+    for name, x, w, cps in series:
+        n = x.size
+        cps = cps[(cps > 0) & (cps < n)]
+        for method in methods:
+            seg = tssb_segmenter(method)
+            t0 = time.perf_counter()
+            try:
+                if method in ("pca", "kmeans"):
+                    E, off = _embed(x, w)
+                    pred = np.unique(np.clip(seg.fit_predict(E) + off, 1, n - 1))
+                else:
+                    pred = seg.fit_predict(x)
+                error = None
+            except Exception as exc:  # a method failing on one series is reported, not fatal
+                pred, error = np.zeros(0, dtype=np.int64), f"{type(exc).__name__}: {exc}"
+            dt = time.perf_counter() - t0
+            row = {"dataset": "tssb", "take": name, "method": method, "n_frames": int(n), "n_ref_cuts": int(cps.size),
+                   "n_cuts": int(len(pred)), "covering": covering(pred, cps, n), "seconds": dt,
+                   "published": published.get(name, {}), "error": error}
+            rows.append(row)
+            if log:
+                log(f"tssb {name} {method}: Cov {row['covering']:.3f} ({len(pred)} cuts / {cps.size}) {dt:.2f} s"
+                    + (f" [{error}]" if error else ""))
+    return rows
+
+
+def summarise(mocap_rows: list[dict], tssb_rows: list[dict]) -> dict:
+    """Per method: mean RI / F1 / Covering / seconds over the mocap takes; mean TSSB Covering."""
+    out: dict = {"cmu": {}, "tssb": {}}
+    for r in mocap_rows:
+        key = r["method"] + (" (known k)" if r["mode"] == "known_k" else "")
+        out["cmu"].setdefault(key, []).append(r)
+    out["cmu"] = {k: {m: float(np.mean([r[m] for r in v])) for m in ("ri", "f1", "covering", "seconds")}
+                  for k, v in out["cmu"].items()}
+    by = {}
+    for r in tssb_rows:
+        by.setdefault(r["method"], []).append(r)
+    out["tssb"] = {m: {"covering": float(np.mean([r["covering"] for r in v])), "n_series": len(v),
+                       "seconds": float(np.mean([r["seconds"] for r in v])),
+                       "failures": sum(r["error"] is not None for r in v)} for m, v in by.items()}
+    if tssb_rows:
+        names = sorted({r["take"] for r in tssb_rows})
+        pub = {r["take"]: r["published"] for r in tssb_rows}
+        out["tssb_published"] = {p: float(np.mean([pub[n][p] for n in names if p in pub[n]])) for p in PUBLISHED}
+    return out
+
+
+def markdown(mocap_rows: list[dict], tssb_rows: list[dict]) -> str:
+    """The README tables: per take and method RI / F1 / Covering / seconds; TSSB means."""
+    lines = []
+    if mocap_rows:
+        lines.append("| take | method | RI | F1 | Covering | cuts / true | s |")
+        lines.append("|---|---|---:|---:|---:|---:|---:|")
+        for r in mocap_rows:
+            m = r["method"] + (" (known k)" if r["mode"] == "known_k" else "")
+            lines.append(f"| {r['take']} | {m} | {r['ri']:.3f} | {r['f1']:.3f} | {r['covering']:.3f} | "
+                         f"{r['n_cuts']} / {r['n_ref_cuts']} | {r['seconds']:.2f} |")
+        s = summarise(mocap_rows, [])["cmu"]
+        lines.append("")
+        lines.append("| method (mean of 4 takes) | RI | F1 | Covering | s per take |")
+        lines.append("|---|---:|---:|---:|---:|")
+        for m, v in s.items():
+            lines.append(f"| {m} | {v['ri']:.3f} | {v['f1']:.3f} | {v['covering']:.3f} | {v['seconds']:.2f} |")
+    if tssb_rows:
+        s = summarise([], tssb_rows)
+        lines.append("")
+        lines.append(f"| TSSB ({s['tssb'][next(iter(s['tssb']))]['n_series']} series) | mean Covering | s per series | failures |")
+        lines.append("|---|---:|---:|---:|")
+        for m, v in s["tssb"].items():
+            lines.append(f"| {m} (ours) | {v['covering']:.3f} | {v['seconds']:.2f} | {v['failures']} |")
+        for p, v in s["tssb_published"].items():
+            lines.append(f"| {p} (published) | {v:.3f} | | |")
+    return "\n".join(lines) + "\n"
