@@ -127,9 +127,12 @@ def test_features_on_shared_files(shared_data):
     assert F.limbs.shape == (4579, 4)
     # standing/walking: legs point away from the spine (> 120° on average), arms hang (> 90°)
     assert (F.limbs.mean(0)[:2] > 120).all() and (F.limbs.mean(0)[2:] > 90).all()
-    for name in ("perception-neuron-freya.bvh", "walk-meredith.bvh"):
-        F = motion_features(load_motion(shared_data / "bvh" / name))
-        assert np.isfinite(F.limbs).all() and (F.limbs >= 0).all() and (F.limbs <= 180).all()
+    F = motion_features(load_motion(shared_data / "bvh" / "perception-neuron-freya.bvh"))
+    assert (F.joint_map["spine"], F.joint_map["r_shoulder"], F.joint_map["l_wrist"]) == ("Neck", "RightArm", "LeftHand")
+    F = motion_features(load_motion(shared_data / "bvh" / "walk-meredith.bvh"))
+    assert (F.joint_map["spine"], F.joint_map["r_hip"], F.joint_map["l_elbow"]) == ("Head", "RightUpLeg", "LeftForeArm")
+    # walking: the legs stay far from the spine direction all through the take
+    assert F.partition[:, :4].min() > 100 and F.limbs[:, :2].mean() > 140
 
 
 # ---------------------------------------------------------------------------------------------
@@ -260,23 +263,32 @@ def test_r2_and_sd_follow_the_equations():
 
 
 def test_downsampling_maps_cuts_to_input_frames():
-    x = np.repeat(_changing(1), 4)  # the same take at 4x the rate
-    cuts = ARMASegmenter(downsample=4).fit_predict(x)
+    x = _changing(1)
+    fine = np.repeat(x, 4)  # the same take at 4x the rate: every 4th frame is x again
+    cuts = ARMASegmenter(downsample=4).fit_predict(fine)
+    assert cuts.tolist() == (4 * ARMASegmenter(downsample=1).fit_predict(x)).tolist()
     assert len(cuts) == 1 and abs(int(cuts[0]) - 4 * 550) <= 40
 
 
 def test_order_selection_picks_the_true_ar_order():
     z = _ar_series(3000, [1.2, -0.6], sigma=1.0, seed=11)
+    from statsmodels.tsa.ar_model import AutoReg
+
     order, F = ARMASegmenter().select_order(z)
     assert order == (2, 0)
     for (p, q), v in F.items():  # F is Eq. 25: the mean squared one-step error of that model
-        assert v == pytest.approx(np.mean(fit_arma(z, p, q).resid[0] ** 2))
+        if q == 0:
+            assert v == pytest.approx(AutoReg(z, lags=p, trend="c").fit().sigma2, rel=1e-9)
+    # the parsimony rule: larger orders are not 1 % better, yet they are not worse either
+    assert min(F.values()) <= F[(2, 0)] <= min(F.values()) * 1.01
 
 
 def test_ensemble_rules():
     s = ARMASegmenter(ensemble_tol=50, min_limbs=2)
     assert s.ensemble([[100], [104], [300], []]) == [102]  # 300 found by one limb only: dropped
     assert s.ensemble([[100, 400], [110, 405], [90, 395], [130, 700]]) == [105, 400]
+    # complete linkage: a chain 100-140-180-220 is two cuts, not one
+    assert s.ensemble([[100], [140], [180], [220]]) == [120, 200]
     # equal counts, matching order: the paper's row-wise median
     rng = np.random.default_rng(0)
     truth = np.array([300, 800, 1500, 2100])
@@ -288,10 +300,36 @@ def test_ensemble_rules():
 
 
 def test_multilimb_synthetic_ensemble():
-    # four limbs change at the same time (±3 samples), one limb adds a spurious cut of its own
-    X = np.stack([_changing(s, n1=550 + d) for s, d in zip(range(4), (0, 2, -3, 1))], axis=1)
-    cuts = ARMASegmenter(downsample=1).fit_predict(X)
+    # four limbs change at the same time (±3 samples); a fifth changes alone at 850: that cut of a
+    # single limb is dropped by the ensemble
+    X = np.stack([_changing(s, n1=550 + d) for s, d in zip(range(4), (0, 2, -3, 1))] + [_changing(9, n1=850)], axis=1)
+    seg = ARMASegmenter(downsample=1)
+    cuts = seg.fit_predict(X)
+    assert any(abs(int(c) - 850) <= 10 for c in seg.limb_cuts_[4])
     assert len(cuts) == 1 and abs(int(cuts[0]) - 550) <= 10
+
+
+def test_min_limbs_counts_moving_channels_only():
+    X = np.stack([_changing(2), np.full(1100, 45.0)], axis=1)
+    assert ARMASegmenter(downsample=1).fit_predict(X).tolist() == ARMASegmenter(downsample=1).fit_predict(X[:, 0]).tolist()
+
+
+def test_differenced_windows_join_without_gap():
+    z = np.cumsum(np.random.default_rng(0).normal(size=250))
+    series = ARMASegmenter.window_series(z, [(0, 100), (100, 200), (200, 250)], [True, True, False])
+    assert [off for _, off in series] == [1, 100, 200]
+    np.testing.assert_array_equal(np.concatenate([series[0][0], series[1][0]]), np.diff(z)[:199])
+    np.testing.assert_array_equal(series[2][0], z[200:250])
+
+
+def test_sequence_reading_of_r2():
+    seg = ARMASegmenter(downsample=1, r2_fit="sequence").fit(_changing(0))
+    ch = seg.channels_[0]
+    z = np.diff(_changing(0), n=2)
+    f = fit_arma(z, *ch["order"])
+    s, e = seg.windows(z.size)[3]
+    r = f.resid[0][s - f.start:e - f.start]
+    assert ch["r2"][3] == pytest.approx(1 - (r ** 2).sum() / ((z[s:e] - z[s:e].mean()) ** 2).sum())
 
 
 def test_contract_and_errors():
@@ -301,6 +339,10 @@ def test_contract_and_errors():
         ARMASegmenter(r2_min=1.5)
     with pytest.raises(InvalidParameterError):
         ARMASegmenter(adf_alpha=0.2)
+    with pytest.raises(InvalidParameterError, match="windows of at least"):
+        ARMASegmenter(window=22, p_range=(2,), q_range=(1,))
+    with pytest.raises(InvalidParameterError):
+        ARMASegmenter(r2_fit="global")
     with pytest.raises(InvalidParameterError, match="at least"):
         ARMASegmenter().fit(np.zeros(100))
     with pytest.raises(InvalidSignalError):

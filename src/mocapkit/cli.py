@@ -716,6 +716,7 @@ def segment(
     joint: Annotated[Optional[list[str]], typer.Option("--joint", help="ROLE=JOINT overrides of the joint map (e.g. spine=Spine3).")] = None,
     train: Annotated[Optional[list[str]], typer.Option("--train", help="MOTION=LABELS takes to train --method mlp on (repeat).")] = None,
     rate: Annotated[Optional[float], typer.Option("--rate", help="Frame rate of an AMC file (default 120 Hz).")] = None,
+    downsample: Annotated[Optional[int], typer.Option("--downsample", help="ARMA: keep every N-th frame (default: the factor nearest to 30 Hz).")] = None,
 ) -> None:
     """Cut a take into actions from its limb-bone angles (the ARMA method or a baseline)."""
     from mocapkit.io.loaders import load_motion
@@ -728,8 +729,11 @@ def segment(
     if m == "arma":
         from mocapkit.segment.arma import ARMASegmenter
 
-        seg = ARMASegmenter()
+        ds = downsample if downsample is not None else max(1, int(round(float(motion.rate) / 30.0)))
+        seg = ARMASegmenter(downsample=ds)
     else:
+        if downsample is not None:
+            raise InvalidParameterError("--downsample is an option of --method arma")
         from mocapkit.segment.baselines import BASELINES
 
         kw = {}

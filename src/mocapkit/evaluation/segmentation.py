@@ -30,8 +30,8 @@ MOCAP_METHODS = ("arma", "pca", "kmeans", "mlp", "kernelcpd", "pelt", "clasp")
 TSSB_METHODS = ("arma", "pca", "kmeans", "kernelcpd", "pelt", "clasp")
 KNOWN_K_METHODS = ("kernelcpd", "clasp")
 PUBLISHED = ("ClaSP", "FLOSS", "BinSeg", "PELT")
-#: F1 margin in frames at 120 Hz (0.5 s); 86_01 cuts also count inside the annotators' a..c interval.
-MARGIN_FRAMES = 60
+#: F1 margin in seconds (60 frames at 120 Hz); 86_01 cuts also count inside the annotators' a..c interval.
+MARGIN_S = 0.5
 
 
 @dataclass
@@ -77,8 +77,10 @@ def make_segmenter(method: str, take: Take | None = None, others: list[Take] | N
     return cls(**kw)
 
 
-def score(pred, ref: Reference, margin: int = MARGIN_FRAMES) -> dict:
+def score(pred, ref: Reference, margin_s: float = MARGIN_S) -> dict:
+    """RI, F1 (margin ``margin_s`` seconds at the reference's rate, or the annotators' interval) and Covering."""
     n = ref.n_frames
+    margin = int(round(margin_s * ref.rate_hz))
     f = f1_margin(pred, ref.cuts, n, margin, intervals=ref.intervals)
     return {
         "ri": accuracy_ri(pred, ref.cuts, n),
