@@ -705,6 +705,24 @@ def _pairs(items: Optional[list[str]], what: str) -> list[tuple[str, str]]:
     return out
 
 
+def _rate_scaled(method: str, rate_hz: float) -> dict:
+    """The baselines' frame-count defaults (set for 120 Hz: 1 s shortest segment, 0.5 s smoothing,
+    Barbič's 2 s warm-up) scaled to the take's rate."""
+    f = rate_hz / 120.0
+
+    def fr(n: int) -> int:
+        return max(1, int(round(n * f)))
+
+    if method == "pca":
+        step = fr(5)
+        return {"k_init": fr(240), "step": step, "lag": step * max(1, round(fr(60) / step)), "min_segment": fr(120)}
+    if method in ("kmeans", "mlp"):
+        return {"smooth": fr(61) | 1, "min_segment": fr(120)}
+    if method in ("kernelcpd", "pelt"):
+        return {"min_size": max(2, fr(120))}
+    return {}
+
+
 @app.command()
 def segment(
     input: Annotated[Path, typer.Argument(help="BVH file, or AMC (with --asf or a CMU-named ASF beside it).")],
@@ -748,6 +766,7 @@ def segment(
             kw["train"] = data
         elif train:
             raise InvalidParameterError("--train is only for --method mlp")
+        kw.update(_rate_scaled(m, float(motion.rate)))
         seg = BASELINES[m](**kw)
     X = pose_features(motion) if m == "pca" else feats.limbs
     cuts = seg.fit_predict(X)

@@ -144,12 +144,23 @@ def _embed(x: np.ndarray, w: int) -> tuple[np.ndarray, int]:
     return np.lib.stride_tricks.sliding_window_view(x, w).copy(), w // 2
 
 
-def tssb_segmenter(method: str):
+def tssb_segmenter(method: str, n: int, w: int):
+    """The TSSB settings: ARMA without downsampling; the baselines' shortest segment 5 windows
+    (``5·w``, ClaSP's own exclusion zone) instead of the 1 s of mocap; PELT runs on every
+    ``ceil(n / 8000)``-th sample of long series (its cost grows with n² without pruning)."""
     from mocapkit.segment.arma import ARMASegmenter
     from mocapkit.segment.baselines import BASELINES
 
     if method == "arma":
         return ARMASegmenter(downsample=1)
+    seg_min = max(5 * w, 10)
+    if method in ("pca", "kmeans"):
+        return BASELINES[method](min_segment=seg_min)
+    if method == "kernelcpd":
+        return BASELINES[method](min_size=seg_min)
+    if method == "pelt":
+        ds = max(1, -(-n // 8000))
+        return BASELINES[method](min_size=max(2, seg_min // ds), downsample=ds)
     return BASELINES[method]()
 
 
@@ -162,7 +173,7 @@ def run_tssb(tssb_dir: Path, methods=TSSB_METHODS, limit: int | None = None, log
         n = x.size
         cps = cps[(cps > 0) & (cps < n)]
         for method in methods:
-            seg = tssb_segmenter(method)
+            seg = tssb_segmenter(method, n, w)
             t0 = time.perf_counter()
             try:
                 if method in ("pca", "kmeans"):
