@@ -240,6 +240,16 @@ def test_downsample_maps_cuts_back(make, signal):
     assert _match(cuts, true, TOL) == (0, 0), cuts
 
 
+def test_downsample_is_the_same_run_on_every_kth_frame(signal):
+    """downsample=3 equals running on x[::3] (with min_size in analysed frames) and multiplying by 3."""
+    x, _, _ = signal
+    for big, small in (
+        (KernelCPDSegmenter(downsample=3, min_size=120), KernelCPDSegmenter(min_size=40)),
+        (PELTSegmenter(downsample=3, min_size=120), PELTSegmenter(min_size=40)),
+    ):
+        assert big.fit_predict(x).tolist() == (3 * small.fit_predict(x[::3])).tolist()
+
+
 def test_min_size_is_in_input_frames():
     x, _, _ = _draw(0)
     for seg in (
@@ -293,12 +303,15 @@ def test_univariate_input_is_accepted():
         cuts = seg.fit_predict(y)
         _check_contract(cuts, len(y))
         assert _match(cuts, np.array([600]), TOL)[0] == 0, (type(seg).__name__, cuts)
+        assert _match(cuts, np.array([600]), TOL)[1] <= 1, (type(seg).__name__, cuts)
 
 
 def test_short_series_gives_no_cut_rather_than_an_error(training_takes):
     x = np.random.default_rng(0).normal(size=(12, 4))
     for seg in _all(training_takes):
-        _check_contract(seg.fit_predict(x), len(x))
+        cuts = seg.fit_predict(x)
+        _check_contract(cuts, len(x))
+        assert cuts.size == 0, (type(seg).__name__, cuts)  # 12 frames are shorter than any minimum segment
 
 
 @pytest.mark.parametrize(

@@ -123,3 +123,29 @@ def test_benchmark_floor_on_86_01(bench_86, method):
     floor = FLOOR_86[method]
     for k, v in floor.items():
         assert got[k] >= v, f"{method} {k} {got[k]:.3f} fell below its floor {v}"
+
+
+def test_tssb_settings_and_embedding():
+    from mocapkit.evaluation.segmentation import _embed, tssb_segmenter
+
+    pelt = tssb_segmenter("pelt", 30000, 20)
+    assert pelt.downsample == 4 and pelt.min_size == 100  # min_size stays in input samples
+    assert tssb_segmenter("kernelcpd", 1000, 20).min_size == 100
+    E, off = _embed(np.arange(100.0), 10)
+    assert E.shape == (91, 10) and off == 5
+    np.testing.assert_array_equal(E[7], np.arange(7.0, 17.0))  # row i starts at sample i; centre i + 5
+
+
+def test_read_reference_detects_the_format(tmp_path):
+    from mocapkit.cli import _read_reference
+
+    haca = tmp_path / "h.txt"
+    haca.write_text("86 01\nwalk 40 50 60\njump 100 100 100\n")
+    ref = _read_reference(haca, 100, 120.0)
+    assert ref.cuts.tolist() == [50] and ref.intervals.tolist() == [[40, 60]]
+    m6 = tmp_path / "m.txt"
+    m6.write_text("1 1 1 1\n2 2 2 2\n")  # 8 labels at 10 Hz, 4 per line: still per-frame labels
+    ref = _read_reference(m6, 96, 120.0)
+    assert ref.cuts.tolist() == [48]
+    ref = _read_reference(m6, 24, 30.0)  # at 30 Hz a 10 Hz label covers 3 frames
+    assert ref.cuts.tolist() == [12]

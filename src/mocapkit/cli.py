@@ -689,10 +689,13 @@ def _read_reference(path: Path, n_frames: int, rate_hz: float):
     from mocapkit.io.labels import read_frame_labels, read_haca_labels
 
     lines = [ln.split() for ln in Path(path).read_text(errors="replace").splitlines() if ln.strip()]
-    haca = len(lines) >= 2 and len(lines[1]) == 4 and not lines[1][0].lstrip("-").isdigit()
+    # HACA: a header line, then "label a b c" lines with a (non-integer) label name; mocap6: integers only
+    haca = any(not tok.lstrip("-").isdigit() for ln in lines[1:] for tok in ln)
     if haca:
         return read_haca_labels(path, n_frames=n_frames, rate_hz=rate_hz)
-    return read_frame_labels(path, n_frames=n_frames, rate_hz=rate_hz)
+    # mocap6 labels are at 10 Hz: 12 frames of a 120 Hz take per label
+    return read_frame_labels(path, n_frames=n_frames, frames_per_label=max(1, int(round(rate_hz / 10.0))),
+                             rate_hz=rate_hz)
 
 
 def _pairs(items: Optional[list[str]], what: str) -> list[tuple[str, str]]:

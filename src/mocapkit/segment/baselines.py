@@ -131,10 +131,11 @@ def _optional_module(module: str, package: str, owner: str) -> Any:
 
 
 def _standardise(x: np.ndarray) -> np.ndarray:
-    """Each channel centred and scaled to unit standard deviation; a constant channel becomes 0."""
+    """Each channel centred and scaled to unit standard deviation; a constant channel (standard deviation at most
+    1e-8 of its level) becomes 0."""
     mu = x.mean(axis=0)
     sd = x.std(axis=0)
-    const = sd <= 1e-12 * np.maximum(1.0, np.abs(mu))
+    const = sd <= 1e-8 * np.maximum(1.0, np.abs(mu))  # rounding-level wiggle counts as constant
     sd = np.where(const, 1.0, sd)
     z = (x - mu) / sd
     z[:, const] = 0.0
@@ -1016,7 +1017,7 @@ class KernelCPDSegmenter(Segmenter):
         max_cuts = m // size - 1
         if self.n_cuts is not None:
             k = min(self.n_cuts, max_cuts)
-            if k > 0:
+            if k > 0 and np.ptp(z) > 0:  # a constant signal has no change to place
                 algo = rpt.KernelCPD(kernel="rbf", min_size=size, params={"gamma": gamma})
                 bkps = algo.fit(z).predict(n_bkps=k)
         elif max_cuts >= 1:
