@@ -127,16 +127,9 @@ def _short(text: str, limit: int = 60) -> str:
 
 
 def _read_bytes(path: str | Path) -> tuple[str, bytes]:
-    p = Path(path)
-    src = str(p)
-    try:
-        return src, p.read_bytes()
-    except FileNotFoundError:
-        raise MocapFormatError(src, None, "no such file") from None
-    except IsADirectoryError:
-        raise MocapFormatError(src, None, "is a folder, not a file") from None
-    except OSError as exc:
-        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
+    from mocapkit.io.atomic import read_file_bytes
+
+    return str(Path(path)), read_file_bytes(path)
 
 
 def _decode(data: bytes) -> str:

@@ -153,16 +153,10 @@ class Reference:
 
 def _read_lines(path: str | Path) -> tuple[str, list[str]]:
     """The file's name and its lines (CRLF, LF or CR ends; a UTF-8 byte-order mark is dropped)."""
-    p = Path(path)
-    src = str(p)
-    try:
-        data = p.read_bytes()
-    except FileNotFoundError:
-        raise MocapFormatError(src, None, "no such file") from None
-    except IsADirectoryError:
-        raise MocapFormatError(src, None, "is a folder, not a file") from None
-    except OSError as exc:
-        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
+    from mocapkit.io.atomic import read_file_bytes
+
+    src = str(Path(path))
+    data = read_file_bytes(path)
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
     text = data.decode("utf-8", errors="replace")

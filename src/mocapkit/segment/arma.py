@@ -520,6 +520,3 @@ class ARMASegmenter(Segmenter):
         self.limb_cuts_ = [clean_cuts(np.asarray(c) * self.downsample, n) for c in limb]
         self.cuts_ = clean_cuts(np.asarray(merged, dtype=np.int64) * self.downsample, n)
         return self
-
-    def predict(self) -> np.ndarray:
-        return self.cuts_.copy()

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mocapkit.errors import InvalidSignalError
+from mocapkit.errors import InvalidParameterError, InvalidSignalError
 
 
 def as_signal(X, min_len: int = 2) -> np.ndarray:
@@ -33,12 +33,18 @@ class Segmenter:
     """
 
     n_frames_: int
+    cuts_: np.ndarray
 
     def fit(self, X) -> "Segmenter":  # pragma: no cover - overridden
+        """Segment ``X`` and keep the cuts in ``self.cuts_``."""
         raise NotImplementedError
 
-    def predict(self) -> np.ndarray:  # pragma: no cover - overridden
-        raise NotImplementedError
+    def predict(self) -> np.ndarray:
+        """A copy of the cuts found by the last :meth:`fit`; :class:`InvalidParameterError` before it."""
+        cuts = getattr(self, "cuts_", None)
+        if cuts is None:
+            raise InvalidParameterError(f"{type(self).__name__}: call fit(X) before predict()")
+        return cuts.copy()
 
     def fit_predict(self, X) -> np.ndarray:
         return self.fit(X).predict()

@@ -114,13 +114,6 @@ def _optional_n_cuts(value: Any) -> int | None:
     return None if value is None else _int_param(value, "n_cuts", 0)
 
 
-def _require_fitted(obj: Segmenter) -> np.ndarray:
-    cuts = getattr(obj, "cuts_", None)
-    if cuts is None:
-        raise InvalidParameterError(f"{type(obj).__name__}: call fit(X) before predict()")
-    return cuts.copy()
-
-
 def _optional_module(module: str, package: str, owner: str) -> Any:
     try:
         return importlib.import_module(module)
@@ -433,21 +426,6 @@ class PCASegmenter(Segmenter):
         self.cuts_ = clean_cuts(cuts, n)
         return self
 
-    def predict(self) -> np.ndarray:
-        """The cuts found by the last :meth:`fit`.
-
-        Returns
-        -------
-        numpy.ndarray
-            Sorted unique ``int64`` frames ``c``, ``0 < c < n``.
-
-        Raises
-        ------
-        InvalidParameterError
-            :meth:`fit` has not been called.
-        """
-        return _require_fitted(self)
-
 
 # --------------------------------------------------------------------------------------------------
 # 2. K-means
@@ -580,21 +558,6 @@ class KMeansSegmenter(Segmenter):
         self.labels_ = codes
         self.cuts_ = clean_cuts(_cuts_at_label_changes(codes), n)
         return self
-
-    def predict(self) -> np.ndarray:
-        """The cuts found by the last :meth:`fit`.
-
-        Returns
-        -------
-        numpy.ndarray
-            Sorted unique ``int64`` frames ``c``, ``0 < c < n``.
-
-        Raises
-        ------
-        InvalidParameterError
-            :meth:`fit` has not been called.
-        """
-        return _require_fitted(self)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -778,21 +741,6 @@ class MLPSegmenter(Segmenter):
         self.labels_ = self.classes_[codes]
         self.cuts_ = clean_cuts(_cuts_at_label_changes(codes), n)
         return self
-
-    def predict(self) -> np.ndarray:
-        """The cuts found by the last :meth:`fit`.
-
-        Returns
-        -------
-        numpy.ndarray
-            Sorted unique ``int64`` frames ``c``, ``0 < c < n``.
-
-        Raises
-        ------
-        InvalidParameterError
-            :meth:`fit` has not been called.
-        """
-        return _require_fitted(self)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -1031,21 +979,6 @@ class KernelCPDSegmenter(Segmenter):
         self.cuts_ = clean_cuts(np.asarray(bkps[:-1], dtype=np.int64) * self.downsample, n)
         return self
 
-    def predict(self) -> np.ndarray:
-        """The cuts found by the last :meth:`fit`.
-
-        Returns
-        -------
-        numpy.ndarray
-            Sorted unique ``int64`` frames ``c``, ``0 < c < n``.
-
-        Raises
-        ------
-        InvalidParameterError
-            :meth:`fit` has not been called.
-        """
-        return _require_fitted(self)
-
 
 # --------------------------------------------------------------------------------------------------
 # 5. PELT (ruptures.Pelt)
@@ -1239,21 +1172,6 @@ class PELTSegmenter(Segmenter):
         self.cuts_ = clean_cuts(np.asarray(bkps[:-1], dtype=np.int64) * self.downsample, n)
         return self
 
-    def predict(self) -> np.ndarray:
-        """The cuts found by the last :meth:`fit`.
-
-        Returns
-        -------
-        numpy.ndarray
-            Sorted unique ``int64`` frames ``c``, ``0 < c < n``.
-
-        Raises
-        ------
-        InvalidParameterError
-            :meth:`fit` has not been called.
-        """
-        return _require_fitted(self)
-
 
 # --------------------------------------------------------------------------------------------------
 # 6. ClaSP (claspy)
@@ -1423,21 +1341,6 @@ class ClaSPSegmenter(Segmenter):
             cuts = np.asarray(found, dtype=np.int64) * self.downsample
         self.cuts_ = clean_cuts(cuts, n)
         return self
-
-    def predict(self) -> np.ndarray:
-        """The cuts found by the last :meth:`fit`.
-
-        Returns
-        -------
-        numpy.ndarray
-            Sorted unique ``int64`` frames ``c``, ``0 < c < n``.
-
-        Raises
-        ------
-        InvalidParameterError
-            :meth:`fit` has not been called.
-        """
-        return _require_fitted(self)
 
 
 BASELINES: dict[str, type[Segmenter]] = {
