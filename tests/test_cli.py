@@ -13,7 +13,7 @@ import pytest
 
 from mocapkit.io import read_imu_csv
 from mocapkit.pla import compress_to, evaluate
-from mocapkit.pla.reconstruct import reconstruct_points
+from mocapkit.pla.decode import reconstruct_points
 from mocapkit.quat import angular_distance
 
 EXE = [sys.executable, "-m", "mocapkit.cli"]

@@ -31,7 +31,7 @@ import reference_pla as ref
 from mocapkit.motion import Signal
 from mocapkit.pla.base import Compressed, Encoder, compress
 from mocapkit.pla.metrics import evaluate
-from mocapkit.pla.reconstruct import reconstruct_points
+from mocapkit.pla.decode import reconstruct_points
 from mocapkit.pla.tune import compress_to
 from mocapkit.quat import angular_distance, hemisphere_continuous, slerp
 

@@ -1,7 +1,36 @@
-"""mocapkit: compress, filter and segment human-motion recordings."""
+"""mocapkit: compress, filter and segment human-motion recordings.
 
-from mocapkit.errors import InvalidSignalError, MocapError, MocapFormatError
+>>> import mocapkit
+>>> take = mocapkit.load("walk.bvh")          # doctest: +SKIP
+
+The packages: :mod:`mocapkit.pla` (compression), :mod:`mocapkit.filters`, :mod:`mocapkit.segment`,
+:mod:`mocapkit.io` (readers and writers).
+"""
+
+from mocapkit.errors import (
+    BoundViolationError,
+    InvalidParameterError,
+    InvalidSignalError,
+    MocapError,
+    MocapFormatError,
+)
+from mocapkit.io.loaders import load
+from mocapkit.markers import Markers
 from mocapkit.motion import Signal
+from mocapkit.skeleton import Motion, Skeleton, forward_kinematics
 
 __version__ = "0.1.0"
-__all__ = ["MocapError", "MocapFormatError", "InvalidSignalError", "Signal", "__version__"]
+__all__ = [
+    "BoundViolationError",
+    "InvalidParameterError",
+    "InvalidSignalError",
+    "Markers",
+    "MocapError",
+    "MocapFormatError",
+    "Motion",
+    "Signal",
+    "Skeleton",
+    "__version__",
+    "forward_kinematics",
+    "load",
+]

@@ -511,7 +511,7 @@ def decompress(
     import numpy as np
 
     from mocapkit.io import load_signals, read_imu_csv, write_signal_csv
-    from mocapkit.pla.reconstruct import reconstruct_points
+    from mocapkit.pla.decode import reconstruct_points
     from mocapkit.quat import normalize
 
     if times_from is None and rate is None:

@@ -7,20 +7,28 @@ position is animated, a translation channel. Keyframe quaternions are normalised
 ``(x, y, z, w)`` and made hemisphere-continuous, so a player that does not take the shortest arc gives
 the same result. Lengths are converted to metres (glTF's unit) with ``unit_m`` metres per file unit.
 ``.glb`` (binary) or ``.gltf`` (JSON with the buffer embedded as a data URI) by the suffix.
+
+The animation's ``extras["mocapkit"]`` keeps what glTF has no place for (frame times, the BVH channels of
+every joint, the number of joint nodes, the length unit), so :func:`read_gltf` decodes a file written here
+back to the full-rate motion exactly as :meth:`SkeletalCompressed.decode` does (up to float32). Other glTF
+files are read too: every node is a joint, the frame rate is given by the caller.
 """
 
 from __future__ import annotations
 
 import base64
-import os
-import tempfile
+import math
 from pathlib import Path
 
 import numpy as np
 import pygltflib as g
 
-from mocapkit.errors import InvalidParameterError
-from mocapkit.quat import hemisphere_continuous
+from mocapkit.errors import InvalidParameterError, MocapFormatError
+from mocapkit.io.atomic import atomic_write_bytes, atomic_write_text, read_file_bytes
+from mocapkit.quat import hemisphere_continuous, normalize, slerp
+from mocapkit.skeleton import Motion, Skeleton
+
+EXTRAS_KEY = "mocapkit"
 
 
 class _Blob:
@@ -96,12 +104,21 @@ def build_gltf(comp, unit_m: float = 0.01, name: str = "mocapkit") -> g.GLTF2:
         samplers.append(g.AnimationSampler(input=times_accessor(c.times), output=out, interpolation="LINEAR"))
         channels.append(g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="translation")))
     roots = [j for j in range(sk.n_joints) if sk.parents[j] < 0]
+    extras = {EXTRAS_KEY: {
+        "n_joints": sk.n_joints,
+        "channels": [list(c) for c in sk.channels],
+        "offsets": sk.offsets.tolist(),
+        "t0": float(motion.times[0]),
+        "frame_time": float(motion.frame_time),
+        "n_frames": int(motion.n_frames),
+        "unit_m": float(unit_m),
+    }}
     gl = g.GLTF2(
         asset=g.Asset(version="2.0", generator="mocapkit"),
         scene=0,
         scenes=[g.Scene(name=name, nodes=roots)],
         nodes=nodes,
-        animations=[g.Animation(name=name, samplers=samplers, channels=channels)] if channels else [],
+        animations=[g.Animation(name=name, samplers=samplers, channels=channels, extras=extras)] if channels else [],
         accessors=blob.accessors,
         bufferViews=blob.views,
         buffers=[g.Buffer(byteLength=len(blob.data))],
@@ -111,26 +128,197 @@ def build_gltf(comp, unit_m: float = 0.01, name: str = "mocapkit") -> g.GLTF2:
 
 
 def write_gltf(path: str | Path, comp, unit_m: float = 0.01, name: str = "mocapkit") -> Path:
-    """Write ``.glb`` or ``.gltf`` (chosen by the suffix) atomically."""
+    """Write ``.glb`` or ``.gltf`` (chosen by the suffix) atomically, with the normal file mode."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".glb", ".gltf"):
         raise InvalidParameterError(f"{path}: a glTF file ends in .glb or .gltf")
     gl = build_gltf(comp, unit_m=unit_m, name=name)
     data = gl._blob
-    folder = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=folder)
-    os.close(fd)
-    try:
-        if suffix == ".glb":
-            gl.set_binary_blob(data)
-            gl.save_binary(tmp)
-        else:
-            gl.buffers[0].uri = "data:application/octet-stream;base64," + base64.b64encode(data).decode("ascii")
-            gl.save_json(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    if suffix == ".glb":
+        gl.set_binary_blob(data)
+        atomic_write_bytes(path, b"".join(gl.save_to_bytes()))
+    else:
+        gl.buffers[0].uri = "data:application/octet-stream;base64," + base64.b64encode(data).decode("ascii")
+        atomic_write_text(path, gl.gltf_to_json())
     return path
+
+
+# --------------------------------------------------------------------------------------------------
+# reading
+# --------------------------------------------------------------------------------------------------
+
+_N_COMP = {g.SCALAR: 1, g.VEC3: 3, g.VEC4: 4}
+
+
+def _load(path: Path) -> tuple[g.GLTF2, bytes]:
+    src = str(path)
+    data = read_file_bytes(path, "glTF file")
+    try:
+        if data[:4] == b"glTF":
+            gl = g.GLTF2.load_from_bytes(data)
+            blob = gl.binary_blob() or b""
+        else:
+            gl = g.GLTF2.gltf_from_json(data.decode("utf-8"))
+            uri = gl.buffers[0].uri if gl.buffers else None
+            if uri is None:
+                blob = b""
+            elif uri.startswith("data:"):
+                blob = base64.b64decode(uri.split(",", 1)[1])
+            else:
+                blob = read_file_bytes(path.parent / uri, "glTF buffer")
+    except MocapFormatError:
+        raise
+    except Exception as exc:  # pygltflib raises many kinds on malformed input
+        raise MocapFormatError(src, None, f"not a readable glTF file ({type(exc).__name__}: {exc})") from None
+    return gl, blob
+
+
+def _accessor(gl: g.GLTF2, blob: bytes, i: int, src: str) -> np.ndarray:
+    try:
+        acc = gl.accessors[i]
+        view = gl.bufferViews[acc.bufferView]
+        n = _N_COMP[acc.type]
+    except (IndexError, KeyError, TypeError):
+        raise MocapFormatError(src, None, f"accessor {i} is missing or not a float SCALAR/VEC3/VEC4") from None
+    if acc.componentType != g.FLOAT:
+        raise MocapFormatError(src, None, f"accessor {i}: only FLOAT components are read (got {acc.componentType})")
+    start = (view.byteOffset or 0) + (acc.byteOffset or 0)
+    stride = view.byteStride or 4 * n
+    end = start + stride * (acc.count - 1) + 4 * n
+    if acc.count < 1 or end > len(blob):
+        raise MocapFormatError(src, None, f"accessor {i} reaches past the end of the buffer")
+    raw = np.frombuffer(blob, dtype="<f4", count=(end - start) // 4, offset=start)
+    if stride == 4 * n:
+        out = raw.reshape(acc.count, n)
+    else:
+        out = np.lib.stride_tricks.as_strided(raw, shape=(acc.count, n), strides=(stride, 4))
+    out = out.astype(np.float64)
+    if not np.all(np.isfinite(out)):
+        raise MocapFormatError(src, None, f"accessor {i} holds NaN or infinite values")
+    return out
+
+
+def _sample(key_t: np.ndarray, key_v: np.ndarray, t: np.ndarray, rotation: bool) -> np.ndarray:
+    """glTF ``LINEAR`` sampling: SLERP for rotations, linear otherwise; held before/after the keys."""
+    tc = np.clip(t, key_t[0], key_t[-1])
+    if len(key_t) == 1:
+        return np.repeat(key_v[:1], len(t), axis=0)
+    k = np.clip(np.searchsorted(key_t, tc, side="right") - 1, 0, len(key_t) - 2)
+    f = (tc - key_t[k]) / (key_t[k + 1] - key_t[k])
+    if rotation:
+        return slerp(key_v[k], key_v[k + 1], f)
+    return key_v[k] + f[:, None] * (key_v[k + 1] - key_v[k])
+
+
+def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
+    """Decode the first animation of a glTF file to a full-rate skeletal :class:`Motion`.
+
+    A file written by :func:`write_gltf` is decoded at its original frame times, in its original length
+    unit, with its joints' BVH channels. For other files, every node is a joint (rotation channels ZXY,
+    plus position channels where a translation is animated), lengths stay in metres and ``rate`` (Hz)
+    sets the frame grid from the first to the last keyframe.
+    """
+    p = Path(path)
+    src = str(p)
+    gl, blob = _load(p)
+    if not gl.nodes:
+        raise MocapFormatError(src, None, "no nodes: not a skeletal glTF file")
+    anim = gl.animations[0] if gl.animations else None
+    extras = ((anim.extras or {}) if anim is not None else {}).get(EXTRAS_KEY) or {}
+    n_nodes = int(extras.get("n_joints", len(gl.nodes)))
+    if not (1 <= n_nodes <= len(gl.nodes)):
+        raise MocapFormatError(src, None, f"extras say {n_nodes} joints but the file has {len(gl.nodes)} nodes")
+    parents = np.full(len(gl.nodes), -1, dtype=np.int64)
+    for i, node in enumerate(gl.nodes):
+        for c in node.children or []:
+            if not (0 <= c < len(gl.nodes)) or parents[c] != -1 or c == i:
+                raise MocapFormatError(src, None, f"node {i} has an invalid or shared child {c}")
+            parents[c] = i
+    # joints in topological order (parents first), end sites (extra nodes) kept as BVH end sites
+    order: list[int] = []
+    roots = [i for i in range(n_nodes) if parents[i] < 0]
+    stack = list(reversed(roots))
+    while stack:
+        i = stack.pop()
+        order.append(i)
+        stack.extend(reversed([c for c in (gl.nodes[i].children or []) if c < n_nodes]))
+    if len(order) != n_nodes:
+        raise MocapFormatError(src, None, "the node hierarchy has a cycle")
+    new = {old: k for k, old in enumerate(order)}
+    unit_m = float(extras.get("unit_m", 1.0))
+    if not (math.isfinite(unit_m) and unit_m > 0):
+        raise MocapFormatError(src, None, f"extras unit_m {unit_m!r} is not a positive number")
+
+    def vec(v, default):
+        a = np.asarray(v if v is not None else default, dtype=np.float64)
+        if not np.all(np.isfinite(a)):
+            raise MocapFormatError(src, None, "a node holds NaN or infinite values")
+        return a
+
+    rest_t = np.array([vec(gl.nodes[o].translation, [0, 0, 0]) / unit_m for o in order])
+    rest_q = np.array([vec(gl.nodes[o].rotation, [0, 0, 0, 1])[[3, 0, 1, 2]] for o in order])
+    if np.any(np.linalg.norm(rest_q, axis=1) == 0):
+        raise MocapFormatError(src, None, "a node has a zero rotation quaternion")
+    tracks: dict[tuple[int, str], tuple[np.ndarray, np.ndarray]] = {}
+    for ch in (anim.channels if anim is not None else []):
+        node, kind = ch.target.node, ch.target.path
+        if kind not in ("rotation", "translation") or node is None or node not in new:
+            continue
+        smp = anim.samplers[ch.sampler]
+        if (smp.interpolation or "LINEAR") != "LINEAR":
+            raise MocapFormatError(src, None, f"sampler {ch.sampler}: only LINEAR interpolation is read, got {smp.interpolation}")
+        kt = _accessor(gl, blob, smp.input, src)[:, 0]
+        kv = _accessor(gl, blob, smp.output, src)
+        if len(kt) != len(kv) or np.any(np.diff(kt) <= 0):
+            raise MocapFormatError(src, None, f"sampler {ch.sampler}: key times must increase and match the values")
+        if kind == "rotation":
+            kv = kv[:, [3, 0, 1, 2]]
+            if np.any(np.linalg.norm(kv, axis=1) == 0):
+                raise MocapFormatError(src, None, f"sampler {ch.sampler}: zero rotation quaternion")
+        else:
+            kv = kv / unit_m
+        tracks[(new[node], kind)] = (kt, kv)
+    if "frame_time" in extras and "n_frames" in extras:
+        if rate is not None:
+            raise InvalidParameterError(f"{src} records its own frame times; do not give a rate")
+        ft, n = float(extras["frame_time"]), int(extras["n_frames"])
+        times = float(extras.get("t0", 0.0)) + ft * np.arange(n)
+    else:
+        if rate is None:
+            raise InvalidParameterError(f"{src} has no mocapkit frame times: give the frame rate (--rate HZ)")
+        if not tracks:
+            raise MocapFormatError(src, None, "no rotation or translation animation to decode")
+        t0 = min(float(kt[0]) for kt, _ in tracks.values())
+        t1 = max(float(kt[-1]) for kt, _ in tracks.values())
+        ft = 1.0 / float(rate)
+        times = t0 + ft * np.arange(int(math.floor((t1 - t0) / ft + 1e-9)) + 1)
+    J, N = n_nodes, len(times)
+    rot = np.broadcast_to(normalize(rest_q)[None], (N, J, 4)).copy()
+    trans = np.broadcast_to(rest_t[None], (N, J, 3)).copy()
+    for (j, kind), (kt, kv) in tracks.items():
+        if kind == "rotation":
+            rot[:, j] = _sample(kt, kv, times, True)
+        else:
+            trans[:, j] = _sample(kt, kv, times, False)
+    names = [gl.nodes[o].name or f"joint{o}" for o in order]
+    if "channels" in extras:
+        chans = [tuple(extras["channels"][o]) for o in order]
+    else:
+        chans = [(("Xposition", "Yposition", "Zposition") if (j, "translation") in tracks else ())
+                 + ("Zrotation", "Xrotation", "Yrotation") for j in range(J)]
+    end_sites = []
+    for o in order:
+        for c in gl.nodes[o].children or []:
+            if c >= n_nodes:
+                end_sites.append((new[o], tuple(float(v) for v in vec(gl.nodes[c].translation, [0, 0, 0]) / unit_m)))
+    offsets = rest_t
+    if "offsets" in extras:
+        offsets = np.array([vec(extras["offsets"][o], [0, 0, 0]) for o in order])
+    try:
+        sk = Skeleton(tuple(names), np.array([new[parents[o]] if parents[o] >= 0 else -1 for o in order]),
+                      offsets, tuple(chans), tuple(end_sites),
+                      meta={"length_unit_cm": 100.0 * unit_m})
+        return Motion(sk, times, rot, trans, channel_values=None, source=src, meta={"frame_time": ft})
+    except Exception as exc:
+        raise MocapFormatError(src, None, f"inconsistent skeleton: {exc}") from None

@@ -52,3 +52,29 @@ def unit_cm(motion: Motion, given: float | None) -> tuple[float, bool]:
     if u is not None:
         return float(u), False
     return 1.0, True
+
+
+def load(path: str | Path, **options):
+    """Read any supported file (or sensor folder) into its model object.
+
+    Returns a :class:`~mocapkit.skeleton.Motion` for skeletal files (BVH, ASF/AMC and the other skeletal
+    formats of :func:`kind_of`), a :class:`~mocapkit.markers.Markers` for marker files (C3D, TSV...), and
+    ``{name: Signal}`` for IMU orientation files and sensor folders. ``options`` are passed to the reader:
+    ``asf``, ``rate``, ``strict`` for skeletal files; ``rate`` and the column overrides for IMU files.
+    """
+    kind = kind_of(path)
+    if kind == "skeletal":
+        allowed = {"asf", "rate", "strict"}
+        bad = sorted(set(options) - allowed)
+        if bad:
+            raise TypeError(f"load() of a skeletal file takes {sorted(allowed)}, not {bad}")
+        return load_motion(path, **options)
+    if kind == "markers":
+        from mocapkit.markers import load_markers
+
+        if options:
+            raise TypeError(f"load() of a marker file takes no options, got {sorted(options)}")
+        return load_markers(path)
+    from mocapkit.io.imucsv import load_signals
+
+    return load_signals(path, **options)

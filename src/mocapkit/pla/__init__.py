@@ -5,8 +5,10 @@ One module per algorithm (``sw``, ``fastsw``, ``cplr``, ``swing``, ``anglesw``),
 """
 
 from mocapkit.pla.base import METHODS, POS_METHODS, Compressed, Encoder, Point, compress
-from mocapkit.pla.metrics import Metrics, evaluate
-from mocapkit.pla.reconstruct import reconstruct
+from mocapkit.pla.decode import reconstruct, reconstruct_points
+from mocapkit.pla.metrics import Metrics, deviations, evaluate
+from mocapkit.pla.optimal import optimal_max_angle
+from mocapkit.pla.skeletal import SkeletalCompressed, compress_motion, position_errors, verify_position_bound
 from mocapkit.pla.tune import compress_to
 
 __all__ = [
@@ -14,10 +16,17 @@ __all__ = [
     "POS_METHODS",
     "Compressed",
     "Encoder",
-    "Point",
-    "compress",
-    "compress_to",
-    "evaluate",
     "Metrics",
+    "Point",
+    "SkeletalCompressed",
+    "compress",
+    "compress_motion",
+    "compress_to",
+    "deviations",
+    "evaluate",
+    "optimal_max_angle",
+    "position_errors",
     "reconstruct",
+    "reconstruct_points",
+    "verify_position_bound",
 ]

@@ -8,7 +8,7 @@ import numpy as np
 
 from mocapkit.motion import Signal
 from mocapkit.pla.base import Compressed
-from mocapkit.pla.reconstruct import reconstruct
+from mocapkit.pla.decode import reconstruct
 from mocapkit.quat import angular_distance
 
 

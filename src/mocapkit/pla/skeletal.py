@@ -24,7 +24,7 @@ import numpy as np
 from mocapkit.errors import BoundViolationError, InvalidParameterError
 from mocapkit.motion import Signal
 from mocapkit.pla.base import Compressed, check_method, compress
-from mocapkit.pla.reconstruct import reconstruct
+from mocapkit.pla.decode import reconstruct
 from mocapkit.skeleton import Motion, forward_kinematics
 
 BOUND_TOL = 1e-9  # relative slack when checking the position bound (float rounding of two FK runs)
