@@ -7,6 +7,8 @@ The packages: :mod:`mocapkit.pla` (compression), :mod:`mocapkit.filters`, :mod:`
 :mod:`mocapkit.io` (readers and writers).
 """
 
+from importlib import metadata as _metadata
+
 from mocapkit.errors import (
     BoundViolationError,
     InvalidParameterError,
@@ -19,7 +21,10 @@ from mocapkit.markers import Markers
 from mocapkit.motion import Signal
 from mocapkit.skeleton import Motion, Skeleton, forward_kinematics
 
-__version__ = "0.1.0"
+try:
+    __version__ = _metadata.version("mocapkit")
+except _metadata.PackageNotFoundError:  # running from a source tree that was never installed
+    __version__ = "0+unknown"
 __all__ = [
     "BoundViolationError",
     "InvalidParameterError",

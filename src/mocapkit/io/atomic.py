@@ -49,10 +49,16 @@ def atomic_writer(path: str | os.PathLike[str], *, binary: bool = False,
             fh = os.fdopen(fd, "w", encoding=encoding, newline="")
         with fh:
             yield fh
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, _target_mode(target))
-        os.replace(tmp, target)
+            try:
+                fh.flush()
+                os.fsync(fh.fileno())
+            except OSError as e:  # e.g. a full disk: name the user's file, not the temporary one
+                raise type(e)(e.errno, e.strerror, str(target)) from None
+        try:
+            os.chmod(tmp, _target_mode(target))
+            os.replace(tmp, target)
+        except OSError as e:
+            raise type(e)(e.errno, e.strerror, str(target)) from None
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()

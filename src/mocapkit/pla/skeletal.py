@@ -17,6 +17,7 @@ allocation is safe but pessimistic; the budgets are therefore scaled up by the l
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -135,6 +136,7 @@ def compress_motion(
     target_icr: float | None = None,
     max_position_error: float | None = None,
     max_segment_length: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> SkeletalCompressed:
     """Compress every track of ``motion``.
 
@@ -150,6 +152,9 @@ def compress_motion(
         Pooled ICR over all tracks; one threshold found by bisection.
     max_position_error
         Bound on every joint's world position error in every frame, in file units (see module notes).
+    progress
+        Called as ``progress(done, total)`` after each full compression of the searches (bisection
+        steps of ``target_icr`` and ``max_position_error``).
     """
     method = check_method(method)
     given = [x is not None for x in (threshold, target_icr, max_position_error)]
@@ -168,8 +173,8 @@ def compress_motion(
         out.info = {"mode": "threshold", "threshold": threshold, "translation_method": tm, "translation_threshold": tt}
         return out
     if target_icr is not None:
-        return _to_icr(motion, method, target_icr, rs, ts, max_segment_length)
-    return _to_position_bound(motion, float(max_position_error), rs, ts, max_segment_length)
+        return _to_icr(motion, method, target_icr, rs, ts, max_segment_length, progress)
+    return _to_position_bound(motion, float(max_position_error), rs, ts, max_segment_length, progress)
 
 
 def _size(motion: Motion) -> float:
@@ -191,7 +196,7 @@ def _translation_rule(method: str, th: float, size: float) -> tuple[str, float]:
     return method, size * size * th
 
 
-def _to_icr(motion, method, target, rs, ts, maxlen) -> SkeletalCompressed:
+def _to_icr(motion, method, target, rs, ts, maxlen, progress=None) -> SkeletalCompressed:
     """One threshold for every track (translations mapped by :func:`_translation_rule`), found by
     bisection on the pooled ICR."""
     if not (0.0 < target <= 1.0):
@@ -211,12 +216,15 @@ def _to_icr(motion, method, target, rs, ts, maxlen) -> SkeletalCompressed:
                     "translation_method": tm, "translation_threshold": tt}
         return out
 
+    tick = progress or (lambda done, total: None)
     best = run(hi)
+    tick(1, 41)
     if best.icr > target:
         raise InvalidParameterError(f"ICR {target:g} is out of reach: the loosest threshold gives {best.icr:.4g}")
-    for _ in range(40):
+    for i in range(40):
         mid = 0.5 * (lo + hi)
         c = run(mid)
+        tick(i + 2, 41)
         if c.icr <= target:
             hi, best = mid, c
         else:
@@ -224,7 +232,7 @@ def _to_icr(motion, method, target, rs, ts, maxlen) -> SkeletalCompressed:
     return best
 
 
-def _to_position_bound(motion, E, rs, ts, maxlen) -> SkeletalCompressed:
+def _to_position_bound(motion, E, rs, ts, maxlen, progress=None) -> SkeletalCompressed:
     if not (math.isfinite(E) and E > 0):
         raise InvalidParameterError(f"max position error must be a positive number, got {E!r}")
     reach = _reach(motion)
@@ -245,13 +253,16 @@ def _to_position_bound(motion, E, rs, ts, maxlen) -> SkeletalCompressed:
         out.info = {"mode": "max_position_error", "bound": E, "budget_scale": scale, "chain_depth": H}
         return out, err
 
+    tick = progress or (lambda done, total: None)
     best, err = run(1.0)
+    tick(1, 15)
     if err > E * (1 + BOUND_TOL):  # cannot happen if the analysis holds: report, never hide
         raise BoundViolationError(f"the safe allocation gives {err:.6g} > {E:g}")
     lo, hi = 0.0, math.log2(H) + 1.0  # scale = 2**x, x in [0, log2 H + 1]
-    for _ in range(14):
+    for i in range(14):
         mid = 0.5 * (lo + hi)
         c, e = run(2.0**mid)
+        tick(i + 2, 15)
         if e <= E * (1 - 1e-6):  # a margin for the rounding of written files (BVH decimals, float32 glTF)
             lo = mid
             if c.n_keyframes <= best.n_keyframes:

@@ -1,0 +1,183 @@
+"""How the command line behaves: results on stdout, diagnostics on stderr, no truncation when piped,
+--version, nothing computed and thrown away, normal file modes, paths named as given, clips decoded."""
+
+from __future__ import annotations
+
+import importlib
+import json
+import os
+import pkgutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit.errors import MocapFormatError
+from mocapkit.io.bvh import read_bvh
+from mocapkit.io.gltf import read_gltf, write_gltf
+from mocapkit.pla.skeletal import compress_motion
+from mocapkit.skeleton import forward_kinematics
+
+EXE = [sys.executable, "-m", "mocapkit.cli"]
+
+
+def run(*args, cwd: Path | None = None, umask: int | None = None) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items() if k != "COLUMNS"}  # piped, no width hint
+    pre = (lambda: os.umask(umask)) if umask is not None else None
+    return subprocess.run([*EXE, *map(str, args)], capture_output=True, text=True, cwd=cwd, timeout=300,
+                          env=env, preexec_fn=pre)
+
+
+@pytest.fixture(scope="module")
+def bvh(tests_data) -> Path:
+    return tests_data / "bvh" / "walk-meredith-60.bvh"
+
+
+def test_version_matches_the_package():
+    r = run("--version")
+    assert r.returncode == 0 and r.stdout.strip() == f"mocapkit {mocapkit.__version__}"
+    assert mocapkit.__version__ == importlib.metadata.version("mocapkit")
+
+
+def test_info_goes_to_stdout_and_is_not_cut_when_piped(tests_data, tmp_path):
+    long_name = "sensor-" + "x" * 150  # wider than the 80 columns rich assumes without a terminal
+    (tmp_path / long_name).mkdir()
+    src = tests_data / "xio" / "pelvis" / "Quaternion.csv"
+    (tmp_path / long_name / "Quaternion.csv").write_bytes(src.read_bytes())
+    r = run("info", tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert r.stderr == ""
+    assert long_name in r.stdout  # the whole name on one line
+    assert "300" in r.stdout  # samples, in a table row rather than a Python dict
+    assert "{" not in r.stdout
+
+
+def test_skeletal_compress_without_output_is_refused_before_any_work(bvh, tmp_path):
+    t0 = time.perf_counter()
+    r = run("compress", bvh, "--max-position-error", "0.5")
+    assert r.returncode == 2 and "-o" in r.stderr and str(bvh) in r.stderr
+    assert time.perf_counter() - t0 < 60  # a refusal, not a compression (generous: the machine is shared)
+    r = run("compress", bvh, "--max-position-error", "0.5", "--stats-only")
+    assert r.returncode == 0, r.stderr
+    assert "keyframes" in r.stdout  # the numbers are the result: on stdout
+    r = run("compress", bvh, "--threshold", "0.01", "--stats-only", "-o", tmp_path / "x.glb")
+    assert r.returncode == 2 and not (tmp_path / "x.glb").exists()
+
+
+def test_imu_folder_without_output_is_refused(tests_data):
+    r = run("compress", tests_data / "xio", "--threshold", "1e-3")
+    assert r.returncode == 2 and "-o FOLDER" in r.stderr
+    r = run("compress", tests_data / "xio", "--threshold", "1e-3", "--stats-only")
+    assert r.returncode == 0 and "pelvis" in r.stdout
+
+
+def test_points_on_stdout_and_table_on_stderr(tests_data):
+    r = run("compress", tests_data / "xio" / "pelvis" / "Quaternion.csv", "--threshold", "1e-3")
+    assert r.returncode == 0
+    assert r.stdout.startswith("time,w,x,y,z\n")
+    assert "ICR" in r.stderr and "ICR" not in r.stdout
+
+
+def test_written_files_have_the_normal_mode(bvh, tests_data, tmp_path):
+    outs = [tmp_path / "a.glb", tmp_path / "a.gltf", tmp_path / "a.bvh"]
+    for o in outs:
+        assert run("compress", bvh, "--threshold", "0.01", "-o", o, umask=0o022).returncode == 0
+    pts = tmp_path / "p.csv"
+    assert run("compress", tests_data / "xio" / "pelvis" / "Quaternion.csv", "-t", "1e-3", "-o", pts,
+               umask=0o022).returncode == 0
+    for o in outs + [pts]:
+        assert oct(o.stat().st_mode & 0o777) == oct(0o644), o
+    leftovers = [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
+    assert leftovers == []
+
+
+def test_errors_name_the_path_the_user_gave(bvh, tmp_path):
+    target = tmp_path / "no-such-folder" / "clip.glb"
+    r = run("compress", bvh, "--threshold", "0.01", "-o", target)
+    assert r.returncode == 2
+    assert str(target) in r.stderr and ".tmp" not in r.stderr
+    assert r.stderr.count("\n") == 1  # one line, no traceback
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".gltf"])
+def test_decompress_clip_to_bvh_equals_the_decoded_motion(bvh, tmp_path, suffix):
+    clip = tmp_path / f"clip{suffix}"
+    r = run("compress", bvh, "--max-position-error", "0.5", "--unit-cm", "2.54", "-o", clip)
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "back.bvh"
+    r = run("decompress", clip, "-o", out)
+    assert r.returncode == 0, r.stderr
+    back = read_bvh(out)
+    orig = read_bvh(bvh)
+    assert back.n_frames == orig.n_frames and back.skeleton.names == orig.skeleton.names
+    assert back.skeleton.channels == orig.skeleton.channels
+    # the same compression in memory, decoded: equal up to float32 storage and 6 BVH decimals
+    comp = compress_motion(orig, "fastsw", max_position_error=0.5 / 2.54)
+    P0, _ = forward_kinematics(comp.decode())
+    P1, _ = forward_kinematics(back)
+    assert np.abs(P1 - P0).max() < 1e-3
+    # and within the guaranteed bound of the original (0.5 cm = 0.197 in)
+    Pr, _ = forward_kinematics(orig)
+    assert np.linalg.norm(P1 - Pr, axis=-1).max() <= 0.5 / 2.54 + 1e-3
+
+
+def test_read_gltf_of_other_files_needs_a_rate(bvh, tmp_path):
+    comp = compress_motion(read_bvh(bvh), "fastsw", threshold=1e-4)
+    p = write_gltf(tmp_path / "c.gltf", comp)
+    doc = json.loads(p.read_text())
+    del doc["animations"][0]["extras"]  # as if another tool wrote it
+    p.write_text(json.dumps(doc))
+    with pytest.raises(mocapkit.InvalidParameterError, match="rate"):
+        read_gltf(p)
+    m = read_gltf(p, rate=120)
+    assert m.skeleton.meta["length_unit_cm"] == 100.0
+    assert np.allclose(np.diff(m.times), 1 / 120)
+
+
+def test_malformed_clip_is_a_format_error(tmp_path):
+    bad = tmp_path / "bad.glb"
+    bad.write_bytes(b"glTF\x02\x00\x00\x00garbage")
+    with pytest.raises(MocapFormatError, match="bad.glb"):
+        read_gltf(bad)
+    r = run("decompress", bad, "-o", tmp_path / "x.bvh")
+    assert r.returncode == 2 and r.stderr.startswith("error: ") and r.stderr.count("\n") == 1
+
+
+def test_skeletal_progress_reports_every_step(bvh):
+    calls = []
+    compress_motion(read_bvh(bvh), "fastsw", max_position_error=0.2, progress=lambda d, n: calls.append((d, n)))
+    assert [d for d, _ in calls] == list(range(1, len(calls) + 1)) and calls[-1][0] == calls[-1][1]
+
+
+# ------------------------------------------------------------------------------------------------
+# the Python API
+# ------------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("package", ["mocapkit", "mocapkit.pla", "mocapkit.filters", "mocapkit.segment", "mocapkit.io"])
+def test_public_names_exist_and_no_function_hides_a_submodule(package):
+    pkg = importlib.import_module(package)
+    assert pkg.__all__, f"{package} exports nothing"
+    for name in pkg.__all__:
+        assert hasattr(pkg, name), f"{package}.{name} is in __all__ but missing"
+    for info in pkgutil.iter_modules(pkg.__path__):
+        if info.name.startswith("_"):  # __main__ runs the command line
+            continue
+        mod = importlib.import_module(f"{package}.{info.name}")
+        if hasattr(pkg, info.name):
+            assert getattr(pkg, info.name) is mod, f"{package}.{info.name} is not the submodule"
+
+
+def test_load_returns_the_model_object_of_each_kind(tests_data, bvh):
+    assert isinstance(mocapkit.load(bvh), mocapkit.Motion)
+    amc = mocapkit.load(tests_data / "cmu" / "86_01_first60.amc", asf=tests_data / "cmu" / "86.asf")
+    assert isinstance(amc, mocapkit.Motion) and amc.n_frames == 60
+    mk = mocapkit.load(tests_data / "markers" / "juggling-qualisys-300hz-first120.tsv")
+    assert isinstance(mk, mocapkit.Markers) and mk.positions.shape[0] == 120
+    sig = mocapkit.load(tests_data / "xio")
+    assert set(sig) == {"pelvis", "left-foot"} and all(isinstance(s, mocapkit.Signal) for s in sig.values())
+    with pytest.raises(TypeError):
+        mocapkit.load(bvh, asf_typo=1)
