@@ -19,6 +19,7 @@ from mocapkit.io.amc import (
     JOINT_CHANNELS,
     ROOT_CHANNELS,
     load_amc_for_cli,
+    project_onto_dofs,
     read_amc,
     read_amc_text,
     read_asf,
@@ -644,9 +645,120 @@ def test_write_amc_refuses_unrepresentable_rotation(tmp_path: Path) -> None:
     rot = m.rotations.copy()
     rot[3, sk.index("ltibia")] = [S2, 0, S2, 0]  # 90 deg about y: ltibia only has rx
     bad = type(m)(sk, m.times, rot, m.translations)
-    with pytest.raises(InvalidSignalError, match="ltibia"):
+    with pytest.raises(InvalidSignalError) as ei:
         write_amc(tmp_path / "bad.amc", bad, sk)
+    msg = str(ei.value)
+    # joint, 1-based frame, how far (deg) and the dofs; ltibia's axis is not along y, so the
+    # closest rx rotation is less than 90 deg away — recomputed here by brute force
+    assert "joint 'ltibia' frame 4:" in msg and "(rx)" in msg and "ltibia (1 frame)" in msg
+    deg = float(re.search(r"is ([0-9.]+) deg away", msg).group(1))
+    c = Rotation.from_quat(np.roll(sk.meta["asf"]["axis_quat"]["ltibia"], -1))
+    M = c.inv() * Rotation.from_quat([0, S2, 0, S2]) * c
+    grid = Rotation.from_euler("x", np.linspace(-180, 180, 72001), degrees=True)
+    brute = np.degrees((grid.inv() * M).magnitude()).min()
+    assert deg == pytest.approx(brute, rel=1e-3) and deg > 10
     assert not (tmp_path / "bad.amc").exists()
+    # a generous limit writes it and reports the same residual
+    rep = write_amc(tmp_path / "ok.amc", bad, sk, max_residual_deg=100)
+    assert rep["joint"] == "ltibia" and rep["frame"] == 4 and rep["max_residual_deg"] == pytest.approx(brute, rel=1e-3)
+    with pytest.raises(InvalidParameterError):
+        write_amc(tmp_path / "x.amc", m, sk, max_residual_deg=-1)
+
+
+def test_write_amc_reports_the_residual(tmp_path: Path) -> None:
+    sk = read_asf(ASF86)
+    m = read_amc(AMC86, sk)
+    rep = write_amc(tmp_path / "out.amc", m, sk)
+    assert rep["max_residual_deg"] < 1e-9 and rep["limit_deg"] == 0.1
+    assert set(rep["per_joint"]) == {"root", *sk.meta["asf"]["bones"]}
+
+
+def _angle_to(q: np.ndarray, seq: str, ang: np.ndarray) -> np.ndarray:
+    r = Rotation.from_euler(seq, ang, degrees=True) if seq else Rotation.identity(len(q))
+    return np.degrees((r.inv() * Rotation.from_quat(np.roll(q, -1, axis=-1))).magnitude())
+
+
+@pytest.mark.parametrize("seq", ["", "x", "y", "z", "xz", "zx", "yz", "zy", "xy", "yx", "xyz", "zyx"])
+def test_projection_is_the_closest_expressible_rotation(seq: str) -> None:
+    """The closed form against a numerical optimum (multi-start Nelder–Mead over the dof angles)."""
+    from scipy.optimize import minimize
+
+    rng = np.random.default_rng(len(seq) * 7 + sum(map(ord, seq)))
+    q = Rotation.random(12, random_state=rng).as_quat()
+    q = np.roll(q, 1, axis=1)  # scalar first
+    ang, res = project_onto_dofs(q, seq)
+    assert ang.shape == (12, len(seq)) and np.all(np.abs(ang) <= 180 + 1e-9)
+    np.testing.assert_allclose(_angle_to(q, seq, ang), res, atol=1e-7)  # the residual is what it says
+    if not seq:
+        return
+    for n in range(12):
+        best = np.inf
+        for start in rng.uniform(-180, 180, size=(6, len(seq))):
+            r = minimize(lambda a: _angle_to(q[n:n + 1], seq, a[None])[0], start, method="Nelder-Mead",
+                         options={"xatol": 1e-8, "fatol": 1e-10, "maxiter": 4000})
+            best = min(best, r.fun)
+        assert res[n] <= best + 1e-6, (seq, n, res[n], best)
+        assert res[n] >= best - 1e-4, (seq, n, res[n], best)
+
+
+@pytest.mark.parametrize("seq", ["x", "yz", "xz", "xyz"])
+def test_projection_is_exact_for_expressible_rotations(seq: str) -> None:
+    rng = np.random.default_rng(3)
+    ang = rng.uniform(-179, 179, size=(50, len(seq)))
+    if len(seq) == 3:
+        ang[:, 1] = rng.uniform(-89, 89, 50)
+    q = np.roll(Rotation.from_euler(seq, ang, degrees=True).as_quat(), 1, axis=1)
+    back, res = project_onto_dofs(q, seq)
+    assert res.max() < 1e-9
+    np.testing.assert_allclose(back, ang, atol=1e-9)
+
+
+def test_bvh_to_amc_round_trip_of_shared_86_01(shared_data: Path, tmp_path: Path) -> None:
+    """86_01 AMC -> BVH (default 6 decimals) -> AMC through the CLI: every value of the AMC comes back
+    within the BVH's written precision (root heading beyond ±180° included), the residual is reported."""
+    import subprocess
+    import sys
+
+    cmu = shared_data / "cmu"
+    exe = [sys.executable, "-m", "mocapkit.cli", "convert"]
+    r = subprocess.run([*exe, str(cmu / "86_01.amc"), str(tmp_path / "a.bvh")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    r = subprocess.run([*exe, str(tmp_path / "a.bvh"), str(tmp_path / "b.amc"), "--asf", str(cmu / "86.asf")],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    got = re.search(r"largest rotation residual ([0-9.e+-]+) deg \((\w+), frame (\d+); limit 0.1 deg\)", r.stderr)
+    assert got is not None, r.stderr
+    assert 0 < float(got.group(1)) < 1e-5
+    sk = read_asf(cmu / "86.asf")
+    a = read_amc(cmu / "86_01.amc", sk).meta["amc_values"]
+    b = read_amc(tmp_path / "b.amc", sk).meta["amc_values"]
+    assert np.abs(a["root"]).max() > 360  # the original counts the heading past ±180°
+    worst = max(float(np.abs(b[n] - v).max()) for n, v in a.items())
+    assert worst < 5e-6  # 6 decimals in the BVH: rounding of 5e-7 deg per channel
+
+
+def test_cli_bvh_to_amc_refuses_a_real_loss(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    from mocapkit.io.bvh import write_bvh
+
+    sk = read_asf(ASF86)
+    m = read_amc(AMC86, sk)
+    rot = m.rotations.copy()
+    rot[9, sk.index("rtibia")] = Rotation.from_euler("xyz", [30, 0, 2], degrees=True).as_quat()[[3, 0, 1, 2]]
+    write_bvh(tmp_path / "bad.bvh", type(m)(sk, m.times, rot, m.translations, None, "", dict(m.meta)))
+    exe = [sys.executable, "-m", "mocapkit.cli", "convert", str(tmp_path / "bad.bvh"), str(tmp_path / "bad.amc"),
+           "--asf", str(ASF86)]
+    r = subprocess.run(exe, capture_output=True, text=True)
+    assert r.returncode == 2
+    assert "joint 'rtibia' frame 10:" in r.stderr and "deg away" in r.stderr and "--max-residual" in r.stderr
+    assert not (tmp_path / "bad.amc").exists()
+    deg = float(re.search(r"is ([0-9.]+) deg away", r.stderr).group(1))
+    assert 0.5 < deg < 30
+    r = subprocess.run([*exe, "--max-residual", str(deg * 1.01)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert "(rtibia, frame 10;" in r.stderr
 
 
 def test_quaternions_match_matrix_formula() -> None:

@@ -16,12 +16,15 @@ from hypothesis import strategies as st
 from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.c3d import check_c3d_structure, read_c3d
 from mocapkit.io.qtm import read_qtm_tsv, read_qtm_tsv_text
-from mocapkit.markers import Markers, load_markers, make_unique_labels, read_markers_csv
+from mocapkit.io.loaders import kind_of
+from mocapkit.io.vicon_csv import read_vicon_csv
+from mocapkit.markers import Markers, load_markers, make_unique_labels, read_markers_csv, write_markers
 
 ezc3d = pytest.importorskip("ezc3d")
 
 TESTS_DIR = Path(__file__).resolve().parent
 EXCERPT = TESTS_DIR / "data" / "markers" / "juggling-qualisys-300hz-first120.tsv"
+VICON_CSV = TESTS_DIR / "data" / "markers" / "vicon-nexus-walking2-excerpt.csv"
 C3D_FILES = {"Vicon.c3d": 51, "BTS.c3d": 22, "FP_Type1.c3d": 22}
 JUGGLING_NAMES = ("base_1", "base_2", "base_3", "base_4", "base_5")
 
@@ -254,11 +257,8 @@ def test_c3d_rejections(tmp_path):
 
     assert "too short" in bad("empty.c3d", b"")
     assert "not a C3D file" in bad("text.c3d", b"NO_OF_FRAMES\t3\n" * 100)
-    assert "truncated" in bad("cut.c3d", data[:-100])
     assert "parameter section" in bad("cutparam.c3d", data[:700] + bytes(10))
-    mism = bytearray(data)
-    mism[2:4] = (7).to_bytes(2, "little")  # header: 7 points, POINT:USED says 3
-    assert "POINT:USED" in bad("mismatch.c3d", bytes(mism))
+    assert "no frames" in bad("nodata.c3d", data[:512 * (data[16] - 1)])
     proc = bytearray(data)
     proc[512 + 3] = 99
     assert "processor type" in bad("proc.c3d", bytes(proc))
@@ -602,3 +602,320 @@ def test_shared_juggling_tsv(shared_data):
     present = ~zero
     np.testing.assert_array_equal(m.positions[present], ref[:, 2:].reshape(4967, 24, 3)[present])
     np.testing.assert_allclose(np.diff(m.times), 1 / 300, atol=1e-5)
+
+
+# ==================================================================================================
+# C3D: what ezc3d reads is read (no false rejections), with warnings
+# ==================================================================================================
+
+
+def _ezc3d_positions(path: Path) -> np.ndarray:
+    ref = ezc3d.c3d(str(path))
+    return np.transpose(ref["data"]["points"][:3], (2, 1, 0))
+
+
+def test_c3d_parameter_name_with_spaces_reads_like_ezc3d(tmp_path):
+    # QTM writes parameter names with spaces ("Uncropped Measurement Length"): ezc3d reads them
+    f = tmp_path / "qtm.c3d"
+    _write_c3d(f)
+    c = ezc3d.c3d(str(f))
+    c.add_parameter("TRIAL", "UNCROPPED_MEASUREMENT_LENGTH", [1234.0])
+    c.write(str(f))
+    data = bytearray(f.read_bytes())
+    i = data.find(b"UNCROPPED_MEASUREMENT_LENGTH")
+    assert i > 0
+    data[i:i + 28] = b"Uncropped Measurement Length"
+    f.write_bytes(bytes(data))
+    ref = ezc3d.c3d(str(f))
+    assert "Uncropped Measurement Length" in ref["parameters"]["TRIAL"]
+    m = read_c3d(f)
+    assert "TRIAL" in m.meta["groups"] and m.meta["warnings"] == []
+    np.testing.assert_array_equal(m.positions, _ezc3d_positions(f))
+    np.testing.assert_array_equal(m.analog["values"], ref["data"]["analogs"][0].T)
+
+
+@pytest.mark.parametrize("cut", [0, 5, 48, 49, 60, 63])
+def test_c3d_truncated_data_reads_the_complete_frames_like_ezc3d(tmp_path, cut):
+    # an Optotrak file whose data section is shorter than POINT:FRAMES says: ezc3d reads the
+    # complete frames; so does read_c3d, with a warning. Frame = 3 points x 16 + 2 x 4 x 4 bytes = 80.
+    f = tmp_path / "cut.c3d"
+    exp = _write_c3d(f)
+    data = f.read_bytes()
+    dpos = 512 * (data[16] - 1)
+    f.write_bytes(data[:dpos + 4 * 80 + cut])
+    m = read_c3d(f)
+    ref = ezc3d.c3d(str(f))
+    assert m.n_frames == ref["data"]["points"].shape[2] == 4
+    np.testing.assert_array_equal(m.positions, exp["positions"][:4])
+    np.testing.assert_array_equal(m.analog["values"], ref["data"]["analogs"][0].T)
+    np.testing.assert_array_equal(m.analog["values"], exp["analog"][:16])
+    assert len(m.meta["warnings"]) == 1
+    assert "the data section is truncated" in m.meta["warnings"][0] and "holds 4 complete frames" in m.meta["warnings"][0]
+
+
+@pytest.mark.parametrize("frames", [4, 9])
+def test_c3d_header_frame_count_disagreeing_with_point_frames(tmp_path, frames):
+    f = tmp_path / "hdr.c3d"
+    exp = _write_c3d(f)
+    data = bytearray(f.read_bytes())
+    data[8:10] = frames.to_bytes(2, "little")  # header last frame; POINT:FRAMES still says 6
+    f.write_bytes(bytes(data))
+    m = read_c3d(f)
+    assert m.n_frames == ezc3d.c3d(str(f))["data"]["points"].shape[2] == 6
+    np.testing.assert_array_equal(m.positions, exp["positions"])
+    assert m.meta["warnings"] == [f"the header says {frames} frames but POINT:FRAMES is 6"]
+
+
+def test_c3d_header_point_count_disagreeing_with_point_used(tmp_path):
+    f = tmp_path / "pts.c3d"
+    exp = _write_c3d(f)
+    data = bytearray(f.read_bytes())
+    data[2:4] = (7).to_bytes(2, "little")  # header: 7 points, POINT:USED says 3 (ezc3d follows USED)
+    f.write_bytes(bytes(data))
+    m = read_c3d(f)
+    np.testing.assert_array_equal(m.positions, exp["positions"])
+    np.testing.assert_array_equal(m.positions, _ezc3d_positions(f))
+    assert "the header says 7 points but POINT:USED is 3" in m.meta["warnings"][0]
+
+
+def test_c3d_data_longer_than_declared_is_reported(tmp_path):
+    f = tmp_path / "long.c3d"
+    exp = _write_c3d(f)
+    f.write_bytes(f.read_bytes() + bytes(80 * 10))  # 10 more frames' worth of bytes after the data
+    m = read_c3d(f)
+    assert m.n_frames == ezc3d.c3d(str(f))["data"]["points"].shape[2] == 6
+    np.testing.assert_array_equal(m.positions, exp["positions"])
+    assert len(m.meta["warnings"]) == 1 and "only the declared frames are read" in m.meta["warnings"][0]
+
+
+# ==================================================================================================
+# C3D writer
+# ==================================================================================================
+
+
+def _random_markers(n=30, m=4, rate=120.0, first=0, units="mm", seed=0, analog=None) -> Markers:
+    rng = np.random.default_rng(seed)
+    p = rng.normal(scale=500.0, size=(n, m, 3))
+    p[rng.random((n, m)) < 0.15] = np.nan
+    labels = [f"M{k:03d}" for k in range(m)]
+    return Markers((first + np.arange(n)) / rate, p, labels, rate, units=units, analog=analog)
+
+
+def test_write_c3d_round_trip_against_ezc3d(tmp_path):
+    rng = np.random.default_rng(1)
+    an = {"labels": ("Fz", "EMG 1"), "rate": 1200.0, "values": rng.normal(size=(300, 2)), "units": ("N", "V")}
+    mk = _random_markers(n=30, m=300, rate=120.0, first=10, units="m", analog=an)
+    f = tmp_path / "w.c3d"
+    write_markers(mk, f)
+    assert oct(f.stat().st_mode & 0o777) == oct(0o666 & ~_umask())
+    back = read_c3d(f)
+    assert back.labels == mk.labels and back.rate == 120.0 and back.units == "m"
+    np.testing.assert_array_equal(back.missing, mk.missing)
+    np.testing.assert_array_equal(back.positions, mk.positions.astype(np.float32).astype(np.float64))
+    np.testing.assert_allclose(back.times, mk.times, rtol=0, atol=1e-12)
+    assert back.meta["first_frame"] == 11 and back.meta["warnings"] == []
+    assert back.analog["labels"] == ("Fz", "EMG 1") and back.analog["rate"] == 1200.0
+    assert back.analog["units"] == ("N", "V")
+    np.testing.assert_array_equal(back.analog["values"], an["values"].astype(np.float32).astype(np.float64))
+    # independently with ezc3d: labels over LABELS/LABELS2, units, rate, the invalid flag
+    ref = ezc3d.c3d(str(f))
+    pp = ref["parameters"]["POINT"]
+    assert list(pp["LABELS"]["value"]) + list(pp["LABELS2"]["value"]) == list(mk.labels)
+    assert pp["UNITS"]["value"][0] == "m" and pp["RATE"]["value"][0] == 120.0
+    res = ref["data"]["meta_points"]["residuals"][0].T
+    np.testing.assert_array_equal(res < 0, mk.missing)
+    assert ref["header"]["points"]["first_frame"] == 10
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def test_write_c3d_without_analog_and_its_rejections(tmp_path):
+    from mocapkit.errors import InvalidParameterError
+    from mocapkit.io.c3d import write_c3d
+
+    bad_an = {"labels": ("a",), "rate": 250.0, "values": np.zeros((75, 1))}  # 250/120 is no integer
+    mk = _random_markers(n=30, m=3, analog=bad_an)
+    with pytest.raises(InvalidParameterError, match="integer number of samples per frame"):
+        write_c3d(mk, tmp_path / "a.c3d")
+    write_c3d(mk, tmp_path / "a.c3d", analog=False)
+    assert read_c3d(tmp_path / "a.c3d").analog is None
+    t = np.arange(10) / 100.0
+    t[5:] += 0.5  # a gap in time: C3D has no time column
+    gap = Markers(t, np.zeros((10, 1, 3)), ("a",), 100.0)
+    with pytest.raises(InvalidParameterError, match="frame 5 .* off the 100 Hz grid"):
+        write_c3d(gap, tmp_path / "gap.c3d")
+    assert not (tmp_path / "gap.c3d").exists()
+    with pytest.raises(InvalidParameterError, match="markers are written to"):
+        write_markers(gap, tmp_path / "x.bvh")
+
+
+def test_write_markers_dispatch_round_trips(tmp_path):
+    mk = _random_markers(n=12, m=3, rate=50.0, first=3)
+    for suffix in (".csv", ".trc", ".c3d"):
+        f = tmp_path / f"m{suffix}"
+        write_markers(mk, f)
+        back = load_markers(f)
+        assert back.labels == mk.labels and kind_of(f) == "markers"
+        np.testing.assert_array_equal(back.missing, mk.missing)
+        tol = {".csv": 0, ".trc": 5e-7, ".c3d": 1e-3}[suffix]
+        np.testing.assert_allclose(back.positions, mk.positions, rtol=0, atol=tol)
+        np.testing.assert_allclose(back.times, mk.times, rtol=0, atol=1e-12)
+
+
+# ==================================================================================================
+# Vicon Nexus CSV export
+# ==================================================================================================
+
+
+def _vicon_reference(path: Path):
+    """An independent parse of the excerpt with numpy.genfromtxt (block lines located by hand)."""
+    lines = path.read_text().splitlines()
+    t0 = lines.index("Trajectories")
+    blank = lines.index("")
+    dev = np.genfromtxt(path, delimiter=",", skip_header=5, max_rows=blank - 5)
+    traj = np.genfromtxt(path, delimiter=",", skip_header=t0 + 5)
+    return dev, traj
+
+
+def test_vicon_csv_excerpt_reads_the_trajectories_and_devices():
+    m = load_markers(VICON_CSV)
+    dev, traj = _vicon_reference(VICON_CSV)
+    assert m.meta["format"] == "vicon-csv" and m.meta["blocks"] == ["Devices", "Trajectories"]
+    assert m.labels == ("walker:LPSI", "walker:LTB2", "walker:RTH1", "walker:LTH3")
+    assert m.rate == 250.0 and m.units == "mm" and m.n_frames == 12
+    np.testing.assert_allclose(m.times, (traj[:, 0] - 1) / 250.0, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(m.positions.reshape(12, -1), traj[:, 2:])  # NaN where empty
+    assert m.missing.sum(axis=0).tolist() == [6, 5, 0, 0]
+    assert m.analog["rate"] == 2000.0 and m.analog["values"].shape == (96, 3)
+    assert m.analog["labels"][2] == "Imported AMTI OR6 Series Force Plate #1 - Force Fz"
+    np.testing.assert_array_equal(m.analog["values"], dev[:, 2:])
+    assert m.analog["t0"] == m.times[0]
+
+
+def test_vicon_csv_dispatch_keeps_the_other_csv_readers(tmp_path, tests_data):
+    from mocapkit.io import load_signals
+
+    assert kind_of(VICON_CSV) == "markers"
+    generic = tests_data / "formats" / "generic.csv"
+    assert kind_of(generic) == "imu" and len(load_signals(generic)) == 1
+    wide = tmp_path / "wide.csv"
+    _random_markers(n=5, m=2).to_csv(wide)
+    assert kind_of(wide) == "markers" and load_markers(wide).meta["format"] == "csv"
+
+
+@pytest.mark.parametrize("variant", ["lf", "semicolon", "bom", "trajectories-only", "leading-blank"])
+def test_vicon_csv_variants(tmp_path, variant):
+    base = read_vicon_csv(VICON_CSV)
+    text = VICON_CSV.read_text()
+    if variant == "lf":
+        text = text.replace("\r\n", "\n")
+    elif variant == "semicolon":
+        text = text.replace(",", ";")
+    elif variant == "bom":
+        text = "\ufeff" + text
+    elif variant == "trajectories-only":
+        text = text[text.index("Trajectories"):]
+    else:
+        text = "\n" + text
+    f = tmp_path / "v.csv"
+    f.write_text(text, encoding="utf-8", newline="")
+    assert kind_of(f) == "markers"
+    m = load_markers(f)
+    assert m.labels == base.labels
+    np.testing.assert_array_equal(m.positions, base.positions)
+    assert (m.analog is None) == (variant == "trajectories-only")
+
+
+def _vicon_lines() -> list[str]:
+    return VICON_CSV.read_text().replace("\r\n", "\n").rstrip("\n").split("\n")
+
+
+@pytest.mark.parametrize(
+    ("edit", "line", "message"),
+    [
+        (lambda L: L[:103] + ["x250"] + L[104:], 104, "the rate 'x250' is not a number"),
+        (lambda L: L[:105] + [L[105].replace("X,Y,Z,X", "X,Z,Y,X", 1)] + L[106:], 106, "expected X, Y, Z"),
+        (lambda L: L[:107] + [L[107].replace("-2255.74", "1x", 1)] + L[108:], 108, "'1x' is not a number"),
+        (lambda L: L[:108] + [L[107]] + L[109:], 109, "frame 262 does not follow frame 262"),
+        (lambda L: L[:108] + [L[108] + ",1.0"] + L[109:], 109, "expected 14 cells"),
+        (lambda L: L[:100], None, "no Trajectories block"),
+        (lambda L: L[102:107], 5, "no data rows"),
+    ],
+)
+def test_vicon_csv_rejections_name_the_line(tmp_path, edit, line, message):
+    f = tmp_path / "bad.csv"
+    f.write_text("\n".join(edit(_vicon_lines())) + "\n")
+    with pytest.raises(MocapFormatError) as info:
+        read_vicon_csv(f)
+    assert info.value.line == line, info.value
+    assert message in info.value.problem, info.value
+
+
+_vop = st.tuples(st.sampled_from(["insert", "delete", "replace", "drop_line", "dup_line"]),
+                 st.floats(0, 1, exclude_max=True), st.sampled_from(list(",;\n\r0123456789.-eE XYZ:") + ["", "nan"]))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(ops=st.lists(_vop, min_size=1, max_size=6))
+def test_fuzz_vicon_csv_only_raises_mocap_format_error(ops):
+    text = "\n".join(_vicon_lines()[102:]) + "\n"
+    for kind, where, ch in ops:
+        if kind in ("insert", "delete", "replace"):
+            i = int(where * (len(text) + 1))
+            text = {"insert": text[:i] + ch + text[i:], "delete": text[:i] + text[i + 1:],
+                    "replace": text[:i] + ch + text[i + 1:]}[kind]
+        else:
+            lines = text.split("\n")
+            i = int(where * len(lines))
+            if kind == "dup_line":
+                lines.insert(i, lines[i])
+            else:
+                del lines[i]
+            text = "\n".join(lines)
+    fd, name = tempfile.mkstemp(suffix=".csv")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        try:
+            m = read_vicon_csv(name)
+        except MocapFormatError as exc:
+            assert exc.path == name and exc.problem
+        else:
+            assert m.positions.shape == (m.n_frames, m.n_markers, 3)
+    finally:
+        os.unlink(name)
+
+
+# ==================================================================================================
+# real files
+# ==================================================================================================
+
+
+@pytest.mark.shared
+def test_every_shared_c3d_file_reads_like_ezc3d(shared_data):
+    files = sorted((shared_data / "c3d").glob("*.c3d"))
+    assert len(files) >= 5
+    for path in files:
+        m = read_c3d(path)
+        ref = ezc3d.c3d(str(path))
+        assert m.n_frames == ref["data"]["points"].shape[2] >= 100, path.name
+        assert m.rate == float(ref["parameters"]["POINT"]["RATE"]["value"][0]) > 0
+        np.testing.assert_array_equal(m.positions, np.transpose(ref["data"]["points"][:3], (2, 1, 0)))
+        assert m.meta["warnings"] == [], (path.name, m.meta["warnings"])
+
+
+@pytest.mark.shared
+def test_vicon_csv_excerpt_equals_its_c3d_source(shared_data):
+    src = read_c3d(shared_data / "c3d" / "vicon-nexus-walking2.c3d")
+    m = read_vicon_csv(VICON_CSV)
+    rows = slice(261, 273)  # frames 262-273
+    cols = [src.index(lab.split(":")[1]) for lab in m.labels]
+    np.testing.assert_array_equal(m.missing, src.missing[rows][:, cols])
+    np.testing.assert_allclose(m.positions, src.positions[rows][:, cols], rtol=5e-6)  # 6 significant digits
+    np.testing.assert_allclose(m.times, src.times[rows], rtol=0, atol=1e-12)
+    ai = [src.analog["labels"].index(c) for c in ("Fx1", "Fy1", "Fz1")]
+    np.testing.assert_allclose(m.analog["values"], src.analog["values"][261 * 8:273 * 8][:, ai], rtol=5e-6, atol=1e-9)

@@ -11,11 +11,15 @@ suffix         reader                                      notes
 =============  ==========================================  =======================================
 ``.c3d``       :func:`mocapkit.io.c3d.read_c3d`            via ezc3d, with a structural pre-check
 ``.tsv``       :func:`mocapkit.io.qtm.read_qtm_tsv`        Qualisys QTM 3-D TSV export
-``.csv``       :func:`read_markers_csv`                    the wide CSV written by
+``.trc``       :func:`mocapkit.io.opensim.read_trc`        OpenSim TRC
+``.csv``       :func:`mocapkit.io.vicon_csv.read_vicon_csv` Vicon Nexus export (first line
+                                                           ``Trajectories`` or ``Devices``)
+``.csv``       :func:`read_markers_csv`                    any other CSV: the wide CSV written by
                                                            :meth:`Markers.to_csv`
 =============  ==========================================  =======================================
 
-:func:`load_markers` dispatches on the suffix.
+:func:`load_markers` and :func:`write_markers` (``.c3d``, ``.trc``, ``.csv``) dispatch through
+:mod:`mocapkit.io.loaders`, imported lazily inside them.
 
 Labels
 ------
@@ -43,10 +47,10 @@ from mocapkit.io.atomic import atomic_write_text, read_file_bytes
 
 __all__ = [
     "Markers",
-    "MARKER_READERS",
     "load_markers",
     "make_unique_labels",
     "read_markers_csv",
+    "write_markers",
 ]
 
 _CONTROL_RE = re.compile(r"[\x00-\x1f\x7f\ud800-\udfff]")
@@ -428,36 +432,17 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str = "
 # --------------------------------------------------------------------------------------------------
 
 
-def _read_c3d(path: Path) -> Markers:
-    from mocapkit.io.c3d import read_c3d
-
-    return read_c3d(path)
-
-
-def _read_tsv(path: Path) -> Markers:
-    from mocapkit.io.qtm import read_qtm_tsv
-
-    return read_qtm_tsv(path)
-
-
-#: Suffix (lower case, with the dot) -> reader of a marker file.
-MARKER_READERS = {".c3d": _read_c3d, ".tsv": _read_tsv, ".csv": read_markers_csv}
-
-
 def load_markers(path: str | Path) -> Markers:
-    """Read a marker file, choosing the reader by suffix (``.c3d``, ``.tsv``, ``.csv``).
+    """Read a marker file (``.c3d``, ``.tsv``, ``.trc``, ``.csv``): see
+    :func:`mocapkit.io.loaders.load_markers`, where the dispatch lives (the model imports no reader)."""
+    from mocapkit.io.loaders import load_markers as _load
 
-    Raises :class:`MocapFormatError` for a missing file, an unknown suffix or bad content.
-    """
-    p = Path(path)
-    if not p.exists():
-        raise MocapFormatError(str(p), None, "no such file")
-    if p.is_dir():
-        raise MocapFormatError(str(p), None, "is a folder, not a marker file")
-    reader = MARKER_READERS.get(p.suffix.lower())
-    if reader is None:
-        raise MocapFormatError(
-            str(p), None,
-            f"unknown marker file suffix {p.suffix!r}; expected one of {', '.join(sorted(MARKER_READERS))}",
-        )
-    return reader(p)
+    return _load(path)
+
+
+def write_markers(markers: Markers, path: str | Path, *, analog: bool = True) -> None:
+    """Write markers by suffix (``.c3d``, ``.trc``, ``.csv``): see
+    :func:`mocapkit.io.loaders.write_markers`."""
+    from mocapkit.io.loaders import write_markers as _write
+
+    _write(markers, path, analog=analog)

@@ -85,14 +85,16 @@ from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapError, MocapFormatError
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.quat import from_scipy, to_scipy
+from mocapkit.quat import from_scipy, multiply, to_scipy
 from mocapkit.skeleton import Motion, Skeleton
 
 __all__ = [
     "CMU_RATE",
+    "DEFAULT_MAX_RESIDUAL_DEG",
     "ROOT_CHANNELS",
     "JOINT_CHANNELS",
     "load_amc_for_cli",
+    "project_onto_dofs",
     "read_amc",
     "read_amc_text",
     "read_asf",
@@ -866,14 +868,126 @@ def _fmt(v: float) -> str:
     return repr(float(v))
 
 
-def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton, tol_deg: float = 1e-6) -> None:
+#: Default largest projection residual (degrees) that :func:`write_amc` accepts: a BVH written with
+#: d decimals carries up to ~1.5·10^-d degrees of rounding in a composed rotation (1e-6° at the
+#: usual 6, 0.015° at 2), while a real loss — a rotation about an axis the bone has no dof for, a
+#: skeleton that is not the ASF's — is degrees. 0.1° moves the end of a 50 cm limb by 0.9 mm, below
+#: the accuracy of any motion capture.
+DEFAULT_MAX_RESIDUAL_DEG = 0.1
+
+_AXIS_COMPONENT = {"x": 1, "y": 2, "z": 3}
+
+
+def project_onto_dofs(q: np.ndarray, seq: str) -> tuple[np.ndarray, np.ndarray]:
+    """Closest rotation that dofs ``seq`` can express, and how far ``q`` is from it.
+
+    Parameters
+    ----------
+    q
+        ``(N, 4)`` scalar-first quaternions (normalised here).
+    seq
+        The dof axes in the bone's order, lower case (``""``, ``"x"``, ``"xz"``, ``"xyz"``…): the
+        rotation of angles ``(a, b, …)`` is ``… · R_seq[1](b) · R_seq[0](a)`` (fixed axes, the AMC
+        convention of :func:`read_amc`).
+
+    Returns
+    -------
+    angles, residual
+        ``(N, len(seq))`` degrees in ``[-180, 180]`` and ``(N,)`` degrees: the angle between ``q`` and
+        the rotation of ``angles``, the smallest such angle over all angle values (exact, closed
+        form). One dof about axis ``e``: the quaternion nearest ``q`` among ``(cos θ/2, sin θ/2 e)``
+        maximises ``|w cos θ/2 + q_e sin θ/2|``. Two dofs: ``⟨q, q_j(b) ⊗ q_i(a)⟩ = uᵀ A v`` with
+        ``u = (cos a/2, sin a/2)``, ``v = (cos b/2, sin b/2)`` and a 2×2 matrix ``A`` from ``q``, so
+        the optimum is ``A``'s leading singular pair and the residual ``2·atan2(σ₂, σ₁)``. Three
+        dofs: the Euler decomposition (residual at rounding level). No dof: the rotation's angle.
+    """
+    q = np.asarray(q, dtype=np.float64).reshape(-1, 4)
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    N, k = q.shape[0], len(seq)
+    if k == 0:
+        return np.zeros((N, 0)), np.degrees(2 * np.arctan2(np.linalg.norm(q[:, 1:], axis=1), np.abs(q[:, 0])))
+    if k == 3:
+        r = to_scipy(q)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # gimbal lock: scipy still returns a valid decomposition
+            ang = r.as_euler(seq, degrees=True)
+        return ang, np.degrees((_euler(seq, ang, True).inv() * r).magnitude())
+    if k == 1:
+        i = _AXIS_COMPONENT[seq]
+        sign = np.where(q[:, 0] < 0, -1.0, 1.0)
+        w, c = sign * q[:, 0], sign * q[:, i]
+        other = np.linalg.norm(np.delete(q[:, 1:], i - 1, axis=1), axis=1)
+        ang = np.degrees(2 * np.arctan2(c, w))
+        return ang[:, None], np.degrees(2 * np.arctan2(other, np.hypot(w, c)))
+    if k != 2:
+        raise InvalidParameterError(f"dofs {seq!r}: expected up to 3 of x, y, z")
+    basis = {}
+    for ax in seq:
+        e = np.zeros(4)
+        e[_AXIS_COMPONENT[ax]] = 1.0
+        basis[ax] = (np.array([1.0, 0, 0, 0]), e)
+    A = np.empty((N, 2, 2))
+    for a in range(2):
+        for b in range(2):
+            A[:, a, b] = q @ multiply(basis[seq[1]][b], basis[seq[0]][a])
+    U, S, Vt = np.linalg.svd(A)
+    u, v = U[:, :, 0], Vt[:, 0, :]
+    ang = np.degrees(2 * np.stack([np.arctan2(u[:, 1], u[:, 0]), np.arctan2(v[:, 1], v[:, 0])], axis=1))
+    ang = (ang + 180.0) % 360.0 - 180.0  # a 360° turn of one angle flips the quaternion's sign only
+    return ang, np.degrees(2 * np.arctan2(S[:, 1], S[:, 0]))
+
+
+def _continuous(ang: np.ndarray) -> np.ndarray:
+    """Dof angles (degrees, ``(N, k)``) made continuous over frames without changing any rotation.
+
+    Three dofs: of the two Euler solutions ``(a, b, c)`` and ``(a + 180, 180 − b, c + 180)`` each frame
+    takes the one nearer (modulo 360°) to the previous frame's; then every column is unwrapped, so
+    a root that turns keeps counting past ±180° as CMU files do.
+    """
+    ang = np.array(ang, dtype=np.float64)
+    if ang.shape[1] == 3 and ang.shape[0] > 1:
+        alt = ang + np.array([180.0, 0.0, 180.0])
+        alt[:, 1] = 180.0 - ang[:, 1]
+        alt = (alt + 180.0) % 360.0 - 180.0
+
+        def dist(x, y):
+            return float(np.abs((x - y + 180.0) % 360.0 - 180.0).sum())
+
+        prev = ang[0]
+        for n in range(1, ang.shape[0]):
+            if dist(alt[n], prev) < dist(ang[n], prev):
+                ang[n] = alt[n]
+            prev = ang[n]
+    if ang.shape[0] > 1 and ang.shape[1]:
+        ang = np.degrees(np.unwrap(np.radians(ang), axis=0))
+    return ang
+
+
+def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton,
+              max_residual_deg: float = DEFAULT_MAX_RESIDUAL_DEG) -> dict:
     """Write ``motion`` as an AMC file for ``asf_skeleton`` (from :func:`read_asf`), in degrees.
 
-    Each bone's dof angles are recovered from its local rotation as ``M = C⁻¹ · L · C`` decomposed
-    about fixed axes in the dof order; a rotation that the bone's dofs cannot express (beyond
-    ``tol_deg``) raises :class:`~mocapkit.errors.InvalidSignalError`. The root translation written
-    is the motion's root translation minus the ASF root position. Frames are numbered from 1.
+    Each bone's rotation in its ``axis`` frame, ``M = C⁻¹ · L · C``, is projected onto the bone's dofs
+    (:func:`project_onto_dofs`: the closest rotation the dofs can express); bones without dofs are
+    checked against the identity. The angles are made continuous over frames (:func:`_continuous`),
+    so values read from an AMC come back as they were. The largest residual is returned; if it exceeds
+    ``max_residual_deg`` (default :data:`DEFAULT_MAX_RESIDUAL_DEG`) nothing is written and
+    :class:`~mocapkit.errors.InvalidSignalError` names the joint, frame and degrees. The root
+    translation written is the motion's root translation minus the ASF root position. Frames are
+    numbered from 1.
+
+    Returns
+    -------
+    dict
+        ``max_residual_deg``, ``joint``, ``frame`` (1-based) of the largest residual, and
+        ``per_joint`` (joint → its largest residual in degrees).
     """
+    try:
+        limit = float(max_residual_deg)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"max_residual_deg must be a number of degrees, got {max_residual_deg!r}") from None
+    if not limit >= 0:
+        raise InvalidParameterError(f"max_residual_deg must be >= 0, got {max_residual_deg!r}")
     sk = _asf_of(asf_skeleton)
     asf = sk.meta["asf"]
     names = motion.skeleton.names
@@ -882,29 +996,21 @@ def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton, tol_deg:
         raise InvalidParameterError(f"the motion has no joint(s) {missing[:5]} of the ASF skeleton")
     N = motion.n_frames
     cols: dict[str, np.ndarray] = {}
+    residuals: dict[str, np.ndarray] = {}
+    dof_text: dict[str, str] = {}
 
     def dof_angles(name: str, seq: str, q: np.ndarray) -> np.ndarray:
         c = to_scipy(np.asarray(asf["axis_quat"][name], dtype=np.float64))
-        m = c.inv() * to_scipy(q) * c
-        full = seq + "".join(a for a in "xyz" if a not in seq)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            ang = m.as_euler(full, degrees=True).reshape(N, 3)
-        out = ang[:, : len(seq)]
-        check = _euler(seq, out, True)
-        err = np.degrees((check.inv() * m).magnitude())
-        if np.any(err > tol_deg):
-            f = int(np.argmax(err))
-            raise InvalidSignalError(
-                f"joint {name!r} frame {f + 1}: rotation is {err[f]:.3g} deg away from what its dofs "
-                f"({' '.join('r' + a for a in seq) or 'none'}) can express"
-            )
-        return out
+        m = from_scipy(c.inv() * to_scipy(q) * c).reshape(N, 4)
+        ang, res = project_onto_dofs(m, seq)
+        residuals[name] = res
+        dof_text[name] = " ".join("r" + a for a in seq) or "none"
+        return _continuous(ang)
 
     root_order = tuple(asf["root"]["order"])
     rq = motion.rotations[:, names.index(_ROOT_NAME)]
     rseq = "".join(a[1].lower() for a in root_order if a[0] == "R")
-    rang = dof_angles(_ROOT_NAME, rseq, rq) if rseq else np.zeros((N, 0))
+    rang = dof_angles(_ROOT_NAME, rseq, rq)
     trans = motion.translations[:, names.index(_ROOT_NAME)] - np.asarray(asf["root"]["position"])
     root_cols = []
     ri = 0
@@ -916,9 +1022,22 @@ def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton, tol_deg:
             ri += 1
     cols[_ROOT_NAME] = np.stack(root_cols, axis=1) if root_cols else np.zeros((N, 0))
     for n, b in asf["bones"].items():
+        seq = "".join(d[1] for d in b["dofs"])
+        ang = dof_angles(n, seq, motion.rotations[:, names.index(n)])
         if b["dofs"]:
-            seq = "".join(d[1] for d in b["dofs"])
-            cols[n] = dof_angles(n, seq, motion.rotations[:, names.index(n)])
+            cols[n] = ang
+    per_joint = {n: float(r.max()) if r.size else 0.0 for n, r in residuals.items()}
+    worst = max(per_joint, key=per_joint.get)
+    frame = int(np.argmax(residuals[worst])) if N else 0
+    report = {"max_residual_deg": per_joint[worst], "joint": worst, "frame": frame + 1, "per_joint": per_joint,
+              "limit_deg": limit}
+    if per_joint[worst] > limit:
+        over = {n: int((r > limit).sum()) for n, r in residuals.items() if (r > limit).any()}
+        others = ", ".join(f"{n} ({k} frame{'s' if k > 1 else ''})" for n, k in sorted(over.items(), key=lambda x: -x[1]))
+        raise InvalidSignalError(
+            f"joint {worst!r} frame {frame + 1}: the rotation is {per_joint[worst]:.3g} deg away from the closest one "
+            f"its dofs ({dof_text[worst]}) can express (allowed {limit:g} deg); over the limit: {others}"
+        )
     # bones in ASF hierarchy order (root first), as CMU files list them
     order = [n for n in sk.names if n in cols]
     out = ["# written by mocapkit", ":FULLY-SPECIFIED", ":DEGREES"]
@@ -927,3 +1046,4 @@ def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton, tol_deg:
         for n in order:
             out.append(n + " " + " ".join(_fmt(v) for v in cols[n][f]))
     atomic_write_text(path, "\n".join(out) + "\n")
+    return report

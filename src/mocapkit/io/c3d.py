@@ -46,7 +46,7 @@ from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.atomic import read_file_bytes
 from mocapkit.markers import Markers, make_unique_labels
 
-__all__ = ["read_c3d", "check_c3d_structure", "C3DLayout"]
+__all__ = ["read_c3d", "write_c3d", "check_c3d_structure", "C3DLayout"]
 
 _BLOCK = 512
 _PROCESSORS = {84: "intel", 85: "dec", 86: "mips"}
@@ -105,6 +105,7 @@ class C3DLayout:
     header: dict
     groups: dict[str, dict[str, _Param]]
     data_bytes: int
+    warnings: list[str] = field(default_factory=list)
 
     def values(self, group: str, name: str) -> list | None:
         """Decoded values of a parameter (numbers or strings), ``None`` when absent."""
@@ -153,11 +154,10 @@ def _decode(p: _Param, processor: str) -> list:
     return [_float(p.raw, 4 * k, processor) for k in range(n)]
 
 
-def _check_name(raw: bytes, what: str, offset: int) -> str:
-    if not raw or any(c < 0x21 or c > 0x7E for c in raw):
-        raise _Bad(f"{what} at byte {offset} has an invalid name {raw!r} "
-                   "(expected printable ASCII without spaces)")
-    return raw.decode("ascii")
+def _check_name(raw: bytes) -> str:
+    """The name ezc3d will see: the bytes up to the first NUL (any other byte is accepted, as ezc3d
+    does: QTM writes names with spaces such as ``Uncropped Measurement Length``)."""
+    return raw.split(b"\0", 1)[0].decode("latin-1")
 
 
 def _walk_parameters(data: bytes, start: int, end: int, processor: str) -> dict[int, _Group]:
@@ -178,7 +178,7 @@ def _walk_parameters(data: bytes, start: int, end: int, processor: str) -> dict[
         if name_end + 2 > end:
             raise _Bad(f"parameter record at byte {pos} runs past the parameter section")
         kind = "group" if gid < 0 else "parameter"
-        name = _check_name(data[q:name_end], kind, pos)
+        name = _check_name(data[q:name_end])
         off_pos = name_end
         offset = _u16(data, off_pos)
         q = off_pos + 2
@@ -343,8 +343,10 @@ def _check(data: bytes) -> C3DLayout:
     used = _first(groups, "POINT", "USED", processor, (2,))[0]
     if used < 0:
         raise _Bad(f"POINT:USED is negative ({used})")
-    if used != hdr["points"]:
-        raise _Bad(f"the header says {hdr['points']} points but POINT:USED is {used}")
+    warnings: list[str] = []
+    if used != hdr["points"]:  # ezc3d follows POINT:USED
+        warnings.append(f"the header says {hdr['points']} points but POINT:USED is {used}; "
+                        f"{used} points read")
     prate = _first(groups, "POINT", "RATE", processor, (4,))[0]
     if not math.isfinite(prate) or prate < 0:
         raise _Bad(f"POINT:RATE is {prate!r}")
@@ -438,8 +440,8 @@ def _check(data: bytes) -> C3DLayout:
             raise _Bad(f"the header's last frame ({last}) is before its first frame ({first})")
     h_frames = last0 - first0 + 1
     if pframes:
-        if pframes != h_frames and last != 0xFFFF:
-            raise _Bad(f"the header says {max(h_frames, 0)} frames but POINT:FRAMES is {pframes}")
+        if pframes != h_frames and last != 0xFFFF:  # ezc3d follows POINT:FRAMES
+            warnings.append(f"the header says {max(h_frames, 0)} frames but POINT:FRAMES is {pframes}")
         n_frames = pframes
     else:
         n_frames = h_frames
@@ -462,9 +464,18 @@ def _check(data: bytes) -> C3DLayout:
     frame_bytes = used * 4 * word + ratio * n_analog * word
     data_bytes = n_frames * frame_bytes
     dpos = _BLOCK * (dstart - 1)
-    if dpos + data_bytes > size:
-        raise _Bad(f"the data section is truncated: {n_frames} frames of {frame_bytes} bytes from byte "
-                   f"{dpos} need {dpos + data_bytes} bytes, the file has {size}")
+    if dpos > size:
+        raise _Bad(f"the data section (block {dstart}) starts beyond the end of the file ({size} bytes)")
+    if frame_bytes:
+        # ezc3d reads the complete frames that are there (and stops at the end of the file)
+        held = (size - dpos) // frame_bytes
+        if held < n_frames:
+            warnings.append(f"the data section is truncated: the parameters say {n_frames} frames of "
+                            f"{frame_bytes} bytes from byte {dpos}, the file ({size} bytes) holds {held} "
+                            f"complete frames; {held} frames read")
+            n_frames = held
+            data_bytes = n_frames * frame_bytes
+    rbytes = 0
     if has_rot:
         rg = groups["ROTATION"]
         rs = _first(groups, "ROTATION", "DATA_START", processor, (2,))[0]
@@ -483,12 +494,18 @@ def _check(data: bytes) -> C3DLayout:
         if rbytes and _BLOCK * (rs - 1) + rbytes > size:
             raise _Bad(f"the ROTATION data section is truncated ({ru} rotations x {rr} per frame "
                        f"from block {rs} do not fit in the file)")
+    if frame_bytes and not rbytes and size - dpos - data_bytes >= _BLOCK:
+        extra = (size - dpos - data_bytes) // frame_bytes
+        warnings.append(f"the file has {size - dpos - data_bytes} bytes after the {n_frames} frames the "
+                        f"parameters declare (room for {extra} more frames); as ezc3d, only the declared "
+                        "frames are read")
 
     return C3DLayout(
         processor=processor, param_block=pblock, param_blocks=nblocks, data_start=dstart,
         n_points=used, n_analog=n_analog, analog_per_frame=ratio, n_frames=n_frames,
         first_frame=first if first else 1, is_float=is_float, point_rate=rate,
         analog_rate=float(analog_rate), header=hdr, groups=groups, data_bytes=data_bytes,
+        warnings=warnings,
     )
 
 
@@ -553,7 +570,7 @@ def read_c3d(path: str | Path) -> Markers:
     except _Bad as exc:
         raise MocapFormatError(src, None, str(exc)) from None
     if layout.n_frames == 0:
-        raise MocapFormatError(src, None, "no frames")
+        raise MocapFormatError(src, None, "; ".join(["no frames"] + layout.warnings))
 
     try:
         import ezc3d
@@ -601,6 +618,7 @@ def read_c3d(path: str | Path) -> Markers:
         "storage": "float" if layout.is_float else "integer",
         "groups": sorted(layout.groups),
         "label_fixes": fixes,
+        "warnings": list(layout.warnings),
     }
     if not units:
         units = "mm"
@@ -635,3 +653,92 @@ def read_c3d(path: str | Path) -> Markers:
                        meta=meta)
     except InvalidSignalError as exc:
         raise MocapFormatError(src, None, str(exc)) from None
+
+
+# --------------------------------------------------------------------------------------------------
+# writing
+# --------------------------------------------------------------------------------------------------
+
+#: Largest deviation of a frame time from the regular grid ``(first - 1 + k) / rate`` accepted by
+#: :func:`write_c3d`, in frames (text formats round their times: a TRC at 60 Hz with 3 decimals is
+#: off by up to 0.03 frame).
+TIME_GRID_TOLERANCE = 0.1
+
+
+def _frame_grid(markers: Markers) -> int:
+    """The 1-based number of the first frame; raise when the times are not on a regular grid."""
+    from mocapkit.errors import InvalidParameterError
+
+    k = markers.times * markers.rate
+    first = int(round(float(k[0])))
+    dev = np.abs(k - (first + np.arange(markers.n_frames)))
+    if dev.max() > TIME_GRID_TOLERANCE:
+        i = int(np.argmax(dev))
+        raise InvalidParameterError(
+            f"C3D stores frames at a constant rate: frame {i} (t={float(markers.times[i])!r} s) is "
+            f"{float(dev[i]):.3g} frames off the {markers.rate:g} Hz grid (gaps in time cannot be "
+            "stored; write TRC or CSV instead)")
+    if not 0 <= first <= 65534:
+        raise InvalidParameterError(f"the first frame number ({first + 1}) does not fit in a C3D header")
+    return first + 1
+
+
+def write_c3d(markers: Markers, path: str | Path, *, analog: bool = True) -> None:
+    """Write markers as a C3D file (float storage, Intel byte order) with ezc3d, atomically.
+
+    Stored: ``POINT:LABELS`` (``LABELS2``... beyond 255 markers), ``POINT:RATE``, ``POINT:UNITS``,
+    the header's first frame (``round(times[0] * rate) + 1``, so the time origin is kept), the
+    positions as float32 and a missing sample as the C3D invalid point (coordinates 0, residual -1;
+    read back as NaN). Times must lie on the frame grid (within ``TIME_GRID_TOLERANCE`` frames).
+    With ``analog=True`` the analog channels (when present) are written too; they need a rate that
+    is an integer multiple of the frame rate and ``rate_ratio * N`` samples, else
+    ``InvalidParameterError`` (pass ``analog=False`` to leave them out).
+    """
+    import tempfile
+
+    import ezc3d
+
+    from mocapkit.errors import InvalidParameterError
+    from mocapkit.io.atomic import atomic_write_bytes
+
+    first = _frame_grid(markers)
+    n, m = markers.n_frames, markers.n_markers
+    for lab in markers.labels:
+        if len(lab.encode("utf-8")) > 255:
+            raise InvalidParameterError(f"marker label {lab[:40]!r}... is longer than C3D's 255 bytes")
+    c = ezc3d.c3d()
+    c["parameters"]["POINT"]["RATE"]["value"] = [markers.rate]
+    c["parameters"]["POINT"]["UNITS"]["value"] = [markers.units]
+    labels = list(markers.labels)
+    c["parameters"]["POINT"]["LABELS"]["value"] = labels[:255]
+    for k in range(1, (m + 254) // 255):
+        c.add_parameter("POINT", f"LABELS{k + 1}", labels[255 * k:255 * (k + 1)])
+    missing = markers.missing
+    pts = np.ones((4, m, n))
+    pts[:3] = np.transpose(np.where(missing[:, :, None], 0.0, markers.positions), (2, 1, 0))
+    res = np.where(missing.T, -1.0, 0.0)[None]
+    c["data"]["points"] = pts
+    c["data"]["meta_points"] = {"residuals": res, "camera_masks": np.zeros((7, m, n), dtype=bool)}
+    a = markers.analog
+    if analog and a is not None and len(a["labels"]):
+        ratio = a["rate"] / markers.rate
+        vals = a["values"]
+        if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1 or vals.shape[0] != round(ratio) * n:
+            raise InvalidParameterError(
+                f"analog channels at {a['rate']:g} Hz ({vals.shape[0]} samples) cannot be stored with "
+                f"{n} frames at {markers.rate:g} Hz (C3D needs an integer number of samples per frame)")
+        if not np.isfinite(vals).all():
+            raise InvalidParameterError("analog values must be finite to be written to C3D")
+        c["parameters"]["ANALOG"]["RATE"]["value"] = [float(a["rate"])]
+        c["parameters"]["ANALOG"]["LABELS"]["value"] = list(a["labels"])
+        units = a.get("units")
+        if units is not None and len(units) == len(a["labels"]):
+            c["parameters"]["ANALOG"]["UNITS"]["value"] = [u or " " for u in units]
+        c["data"]["analogs"] = np.ascontiguousarray(vals.T)[None]
+    c["header"]["points"]["first_frame"] = first - 1
+    c["header"]["points"]["last_frame"] = first - 2 + n
+    with tempfile.TemporaryDirectory(prefix="mocapkit-c3d-") as tmp:
+        name = str(Path(tmp) / "out.c3d")
+        c.write(name)
+        data = Path(name).read_bytes()
+    atomic_write_bytes(path, data)

@@ -1,4 +1,4 @@
-"""What kind of file is this, and load it: skeletal motion (BVH, ASF/AMC), markers (C3D, Qualisys
+"""What kind of file is this, and load it: skeletal motion (BVH, ASF/AMC, Xsens MVNX), markers (C3D, Qualisys
 TSV) or IMU orientation streams (CSV/text exports)."""
 
 from __future__ import annotations
@@ -8,12 +8,20 @@ from pathlib import Path
 from mocapkit.errors import MocapFormatError
 from mocapkit.skeleton import Motion
 
-SKELETAL_SUFFIXES = (".bvh", ".amc")
-MARKER_SUFFIXES = (".c3d", ".tsv")
+SKELETAL_SUFFIXES = (".bvh", ".amc", ".mvnx")
+MARKER_SUFFIXES = (".c3d", ".tsv", ".trc")
+#: OpenSim tables: ``"imu"`` for an OpenSense orientation STO, else ``"table"`` (joint angles...).
+TABLE_SUFFIXES = (".mot", ".sto")
 
 
 def kind_of(path: str | Path) -> str:
-    """``"skeletal"``, ``"markers"`` or ``"imu"`` (folders and everything else are IMU data)."""
+    """``"skeletal"``, ``"markers"``, ``"table"`` or ``"imu"`` (folders and everything else are IMU data).
+
+    A ``.csv`` is ``"markers"`` when it is a Vicon Nexus export (first line ``Trajectories`` or
+    ``Devices``) or the wide CSV of :meth:`Markers.to_csv` (``time,<m>_x,<m>_y,<m>_z,...``); a
+    ``.mot``/``.sto`` is ``"imu"`` when it holds OpenSense orientations (``DataType=Quaternion``),
+    else ``"table"`` (one vector signal, e.g. joint angles).
+    """
     p = Path(path)
     if p.is_file() or not p.exists():
         s = p.suffix.lower()
@@ -21,6 +29,12 @@ def kind_of(path: str | Path) -> str:
             return "skeletal"
         if s in MARKER_SUFFIXES:
             return "markers"
+        if s == ".csv" and p.is_file() and _marker_csv(p):
+            return "markers"
+        if s in TABLE_SUFFIXES:
+            from mocapkit.io.opensim import table_kind
+
+            return "imu" if table_kind(p) == "orientations" else "table"
     return "imu"
 
 
@@ -41,6 +55,12 @@ def load_motion(path: str | Path, asf: str | Path | None = None, rate: float | N
         from mocapkit.io.amc import load_amc_for_cli
 
         return load_amc_for_cli(p, asf=asf, rate=rate)
+    if s == ".mvnx":
+        from mocapkit.io.mvnx import read_mvnx
+
+        if rate is not None or asf is not None:
+            raise MocapFormatError(str(p), None, "an MVNX file has its own frameRate and skeleton; do not give --rate or --asf")
+        return read_mvnx(p)
     raise MocapFormatError(str(p), None, f"not a skeletal motion file (expected {', '.join(SKELETAL_SUFFIXES)})")
 
 
@@ -78,3 +98,100 @@ def load(path: str | Path, **options):
     from mocapkit.io.imucsv import load_signals
 
     return load_signals(path, **options)
+
+
+# --------------------------------------------------------------------------------------------------
+# markers: read and write by suffix (and by content for .csv)
+# --------------------------------------------------------------------------------------------------
+
+
+def _marker_csv(path: Path) -> str | None:
+    """``"vicon"`` for a Vicon Nexus CSV export, ``"wide"`` for the CSV of ``Markers.to_csv``."""
+    from mocapkit.io.vicon_csv import is_vicon_csv
+
+    if is_vicon_csv(path):
+        return "vicon"
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            head = fh.readline().lstrip("\ufeff").strip()
+    except OSError:
+        return None
+    cols = [c.strip().strip('"').lower() for c in head.split(",")]
+    if len(cols) >= 4 and cols[0] == "time" and (len(cols) - 1) % 3 == 0 and all(
+            c.endswith("_" + "xyz"[k % 3]) for k, c in enumerate(cols[1:])):
+        return "wide"
+    return None
+
+
+def load_markers(path: str | Path):
+    """Read a marker file: ``.c3d`` (ezc3d), ``.tsv`` (Qualisys), ``.trc`` (OpenSim), ``.csv`` (a Vicon
+    Nexus export when its first line is ``Trajectories``/``Devices``, else the wide CSV of
+    :meth:`mocapkit.markers.Markers.to_csv`). Raises :class:`MocapFormatError` for a missing file, an
+    unknown suffix or bad content."""
+    p = Path(path)
+    if not p.exists():
+        raise MocapFormatError(str(p), None, "no such file")
+    if p.is_dir():
+        raise MocapFormatError(str(p), None, "is a folder, not a marker file")
+    s = p.suffix.lower()
+    if s == ".c3d":
+        from mocapkit.io.c3d import read_c3d
+
+        return read_c3d(p)
+    if s == ".tsv":
+        from mocapkit.io.qtm import read_qtm_tsv
+
+        return read_qtm_tsv(p)
+    if s == ".trc":
+        from mocapkit.io.opensim import read_trc
+
+        return read_trc(p)
+    if s == ".csv":
+        if _marker_csv(p) == "vicon":
+            from mocapkit.io.vicon_csv import read_vicon_csv
+
+            return read_vicon_csv(p)
+        from mocapkit.markers import read_markers_csv
+
+        return read_markers_csv(p)
+    raise MocapFormatError(str(p), None, f"unknown marker file suffix {p.suffix!r}; expected one of "
+                           ".c3d, .csv, .trc, .tsv")
+
+
+MARKER_WRITE_SUFFIXES = (".c3d", ".csv", ".trc")
+
+
+def write_markers(markers, path: str | Path, *, analog: bool = True) -> None:
+    """Write markers by suffix: ``.c3d`` (ezc3d, float32; ``analog`` channels too when True), ``.trc``
+    (OpenSim) or ``.csv`` (the wide CSV). Labels, rate, units and missing samples are kept."""
+    from mocapkit.errors import InvalidParameterError
+
+    s = Path(path).suffix.lower()
+    if s == ".c3d":
+        from mocapkit.io.c3d import write_c3d
+
+        write_c3d(markers, path, analog=analog)
+    elif s == ".trc":
+        from mocapkit.io.opensim import write_trc
+
+        write_trc(markers, path)
+    elif s == ".csv":
+        markers.to_csv(path)
+    else:
+        raise InvalidParameterError(f"{path}: markers are written to {', '.join(MARKER_WRITE_SUFFIXES)}")
+
+
+def _read_opensim_signals(path, *, rate=None):
+    from mocapkit.io.opensim import read_opensim_signals
+
+    return read_opensim_signals(path, rate=rate)
+
+
+def _register_opensim() -> None:
+    from mocapkit.io.imucsv import register_reader
+
+    for suffix in TABLE_SUFFIXES:
+        register_reader(suffix, _read_opensim_signals)
+
+
+_register_opensim()

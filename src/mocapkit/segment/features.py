@@ -11,7 +11,7 @@ and the two bones of a limb are averaged into the 4 limb angles of Table 3 (righ
 right arm, left arm; the table's second "right arm" row is the left arm).
 
 Joint roles are found by name with maps for CMU ASF/AMC, Perception Neuron / Axis Neuron BVH and
-the common ``Hips/RightUpLeg/...`` BVH naming; any role can be overridden by the user.
+the common ``Hips/RightUpLeg/...`` BVH naming and Xsens MVNX segments; any role can be overridden by the user.
 """
 
 from __future__ import annotations
@@ -36,22 +36,25 @@ ROLES = (
 JOINT_CANDIDATES: dict[str, tuple[str, ...]] = {
     "root": ("root", "Hips", "hip", "pelvis", "Hip"),
     "spine": ("lowerneck", "Neck", "neck", "Neck1", "Head", "head"),
-    "r_hip": ("rfemur", "RightUpLeg", "RightHip", "RThigh", "rThigh"),
-    "r_knee": ("rtibia", "RightLeg", "RightKnee", "RShin", "rShin"),
+    "r_hip": ("rfemur", "RightUpLeg", "RightHip", "RThigh", "rThigh", "RightUpperLeg"),
+    "r_knee": ("rtibia", "RightLeg", "RightKnee", "RShin", "rShin", "RightLowerLeg"),
     "r_ankle": ("rfoot", "RightFoot", "RightAnkle", "RFoot", "rFoot"),
-    "l_hip": ("lfemur", "LeftUpLeg", "LeftHip", "LThigh", "lThigh"),
-    "l_knee": ("ltibia", "LeftLeg", "LeftKnee", "LShin", "lShin"),
+    "l_hip": ("lfemur", "LeftUpLeg", "LeftHip", "LThigh", "lThigh", "LeftUpperLeg"),
+    "l_knee": ("ltibia", "LeftLeg", "LeftKnee", "LShin", "lShin", "LeftLowerLeg"),
     "l_ankle": ("lfoot", "LeftFoot", "LeftAnkle", "LFoot", "lFoot"),
-    "r_shoulder": ("rhumerus", "RightArm", "RightShoulder", "RUpArm", "rShldr"),
+    "r_shoulder": ("rhumerus", "RightArm", "RightUpperArm", "RightShoulder", "RUpArm", "rShldr"),
     "r_elbow": ("rradius", "RightForeArm", "RightElbow", "RLowArm", "rForeArm"),
     "r_wrist": ("rwrist", "RightHand", "RightWrist", "RHand", "rHand"),
-    "l_shoulder": ("lhumerus", "LeftArm", "LeftShoulder", "LUpArm", "lShldr"),
+    "l_shoulder": ("lhumerus", "LeftArm", "LeftUpperArm", "LeftShoulder", "LUpArm", "lShldr"),
     "l_elbow": ("lradius", "LeftForeArm", "LeftElbow", "LLowArm", "lForeArm"),
     "l_wrist": ("lwrist", "LeftHand", "LeftWrist", "LHand", "lHand"),
 }
 # Perception Neuron names its shoulder girdle "RightShoulder" and the upper arm "RightArm": the
 # upper-arm start is "RightArm", so that name is tried first above; "RightShoulder" only serves
-# skeletons without an "...Arm" joint.
+# skeletons without an "...Arm" joint. Xsens MVNX segments (Pelvis, Neck, RightUpperLeg,
+# RightLowerLeg, RightFoot, RightShoulder = clavicle, RightUpperArm, RightForeArm, RightHand) are
+# placed at their proximal joint, so "RightUpperArm" (the glenohumeral joint) precedes
+# "RightShoulder" and the spine top is "Neck" (jT1C7).
 
 #: The 8 bones of Table 2 as (start role, end role), in the paper's order θ1..θ8.
 PARTITION_BONES = (

@@ -1,0 +1,477 @@
+"""Xsens MVNX (the XML that MVN Analyze / MVN Animate export, MVNX version 4) as a skeletal motion.
+
+Layout read
+-----------
+``<mvnx version="4">`` (any XML namespace; Xsens writes a default one) holding one ``<subject
+frameRate="…">`` with
+
+* ``<segments>``: ``<segment label="Pelvis">`` … each with ``<points>`` of named ``<point
+  label="jL5S1"><pos_b>x y z</pos_b></point>`` — positions in the segment's body frame, metres;
+* ``<joints>``: ``<joint label="jL5S1"><connector1>Pelvis/jL5S1</connector1><connector2>L5/jL5S1
+  </connector2></joint>`` — the parent segment's point that meets the child segment's point;
+* ``<frames>``: ``<frame type="identity|tpose|tpose-isb">`` calibration frames first (skipped and
+  counted in ``meta["skipped_frames"]``), then ``<frame time="ms" index="k" tc="…" ms="…"
+  type="normal">`` with ``<orientation>`` (4 numbers per segment, ``q0 q1 q2 q3`` scalar first, the
+  rotation from the segment's body frame to the global frame) and ``<position>`` (3 per segment,
+  the global position of the segment origin, metres), in the order of ``<segments>``. Every other
+  element (velocities, sensor data, joint angles, centre of mass, …) is ignored. A frame without a
+  ``type`` is taken as a normal frame.
+
+The file is read with the streaming expat parser (the parser under ``xml.etree``), keeping only the
+two numeric arrays of the normal frames: a long recording costs 7 floats per segment and frame. The
+expat parser is used directly (not ``iterparse``) because it reports the line of every element, so
+that a missing or malformed element is reported with its line. Anything malformed raises
+:class:`~mocapkit.errors.MocapFormatError` with the path and the line.
+
+Model mapping
+-------------
+* One joint per segment, named with the segment's label and placed at the segment origin (where the
+  file's ``<position>`` is). The parent of a segment is the segment of ``connector1`` of the joint
+  whose ``connector2`` names it; segments that no joint names as a child are roots (normally only
+  ``Pelvis``) and get ``Xposition Yposition Zposition`` channels with the file's position.
+* Local rotation ``L = G_parent⁻¹ · G_child`` from the normalised global quaternions (roots: ``G``).
+* Offset (rest translation) of a child = ``connector1`` point in the parent's body frame minus the
+  ``connector2`` point in the child's body frame (Xsens puts the child's origin at its joint, so the
+  second term is zero in MVN files).
+* Soft body: the file's own local translation ``G_parent⁻¹ (p_child − p_parent)`` is compared with
+  the offset over all frames (``meta["joint_gap_m"]``). A joint whose gap stays within
+  ``gap_tolerance_m`` (default 0.1 mm — thirty times the rounding of the file's six decimals and far
+  below any mocap accuracy) keeps its constant offset; a joint beyond it gets position channels
+  holding the file's per-frame translation (listed in ``meta["animated_offsets"]``, with a line in
+  ``meta["warnings"]``), so forward kinematics reproduces every segment position of the file.
+* Leaf segments get an end site at their point farthest from the origin (``pTopOfHead``,
+  ``pRightTopOfHand``, ``pRightToe`` in MVN files).
+* Units and axes stay as in the file: metres (``Skeleton.meta["length_unit_cm"] = 100``), Z up
+  (``meta["up_axis"]``).
+* Times: ``frameRate`` and the frames' ``index`` give ``t = t0 + (index − index0) / rate`` when
+  every frame's ``time`` (whole ms) agrees with it to the ms rounding; otherwise the ``time``
+  attribute is used (with a warning), and without ``frameRate`` the ``time`` attribute alone.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from xml.parsers import expat
+
+import numpy as np
+
+from mocapkit.errors import InvalidSignalError, MocapFormatError
+from mocapkit.quat import multiply
+from mocapkit.skeleton import Motion, Skeleton, quat_to_matrix
+
+__all__ = ["CALIBRATION_FRAME_TYPES", "GAP_TOLERANCE_M", "JOINT_CHANNELS", "ROOT_CHANNELS", "read_mvnx"]
+
+ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Xrotation", "Yrotation")
+JOINT_CHANNELS = ("Zrotation", "Xrotation", "Yrotation")
+ANIMATED_CHANNELS = ("Xposition", "Yposition", "Zposition") + JOINT_CHANNELS
+#: Frame types MVN writes before the recording (skipped).
+CALIBRATION_FRAME_TYPES = ("identity", "tpose", "tpose-isb")
+#: Largest difference (m) between a joint's offset and the file's own local translation that is
+#: still a rigid segment (see the module docstring).
+GAP_TOLERANCE_M = 1e-4
+
+_TEXT_ELEMENTS = frozenset(("pos_b", "connector1", "connector2", "orientation", "position"))
+
+
+def _local(name: str) -> str:
+    """Element name without a namespace (``{uri}frame`` / ``ns:frame`` -> ``frame``)."""
+    return name.rsplit("}", 1)[-1].rsplit(":", 1)[-1]
+
+
+class _Reader:
+    """Expat handlers that collect the skeleton description and the normal frames."""
+
+    def __init__(self, src: str, parser) -> None:
+        self.src = src
+        self.p = parser
+        self.stack: list[str] = []
+        self.text: list[str] | None = None
+        self.text_line = 0
+        self.version = None
+        self.mvn_version = None
+        self.subject: dict | None = None
+        self.subject_line = 0
+        self.segments: list[dict] = []
+        self.seg_index: dict[str, int] = {}
+        self.point: dict | None = None
+        self.joints: list[dict] = []
+        self.joint: dict | None = None
+        self.frames_seen = False
+        self.skipped: dict[str, int] = {}
+        self.frame: dict | None = None
+        self.orient: list[np.ndarray] = []
+        self.pos: list[np.ndarray] = []
+        self.times_ms: list[float | None] = []
+        self.indices: list[int | None] = []
+        self.frame_lines: list[int] = []
+
+    # -- helpers -----------------------------------------------------------------------------------
+    def fail(self, problem: str, line: int | None = None):
+        raise MocapFormatError(self.src, self.p.CurrentLineNumber if line is None else line, problem)
+
+    def numbers(self, text: str, what: str, line: int) -> np.ndarray:
+        toks = text.split()
+        try:
+            v = np.array(list(map(float, toks)), dtype=np.float64)
+        except ValueError:
+            bad = next(t for t in toks if not _is_float(t))
+            self.fail(f"{what}: {bad[:40]!r} is not a number", line)
+        if not np.all(np.isfinite(v)):
+            self.fail(f"{what}: NaN or infinite value", line)
+        return v
+
+    def attr_float(self, attrs: dict, key: str, what: str) -> float | None:
+        if key not in attrs or attrs[key].strip() == "":
+            return None
+        try:
+            v = float(attrs[key])
+        except ValueError:
+            self.fail(f"{what} {key}={attrs[key][:40]!r} is not a number")
+        if not math.isfinite(v):
+            self.fail(f"{what} {key}={attrs[key]!r} is not finite")
+        return v
+
+    # -- handlers ----------------------------------------------------------------------------------
+    def start(self, name: str, attrs: dict) -> None:
+        tag = _local(name)
+        parent = self.stack[-1] if self.stack else None
+        self.stack.append(tag)
+        if parent is None:
+            if tag != "mvnx":
+                self.fail(f"not an MVNX file: the root element is <{tag}>, expected <mvnx>")
+            self.version = attrs.get("version")
+            return
+        if tag == "mvn" and parent == "mvnx":
+            self.mvn_version = attrs.get("version")
+        elif tag == "subject" and parent == "mvnx":
+            if self.subject is not None:
+                self.fail(f"a second <subject> (the first is on line {self.subject_line}): files with several "
+                          "subjects are not supported")
+            self.subject = dict(attrs)
+            self.subject_line = self.p.CurrentLineNumber
+            rate = self.attr_float(attrs, "frameRate", "<subject>")
+            if rate is not None and rate <= 0:
+                self.fail(f"<subject> frameRate={attrs['frameRate']!r} must be positive")
+            self.subject["_rate"] = rate
+        elif tag == "segment" and parent == "segments":
+            label = attrs.get("label", "").strip()
+            if not label:
+                self.fail("<segment> without a label")
+            if label in self.seg_index:
+                self.fail(f"segment {label!r} is defined twice (first on line {self.segments[self.seg_index[label]]['line']})")
+            if self.frames_seen:
+                self.fail(f"segment {label!r} after the frames")
+            self.seg_index[label] = len(self.segments)
+            self.segments.append({"label": label, "line": self.p.CurrentLineNumber, "points": {}})
+        elif tag == "point" and parent == "points" and len(self.stack) >= 3 and self.stack[-3] == "segment":
+            label = attrs.get("label", "").strip()
+            if not label:
+                self.fail(f"<point> without a label in segment {self.segments[-1]['label']!r}")
+            self.point = {"label": label, "line": self.p.CurrentLineNumber, "pos": None}
+        elif tag == "joint" and parent == "joints":
+            self.joint = {"label": attrs.get("label", "?"), "line": self.p.CurrentLineNumber}
+        elif tag == "frames" and parent == "subject":
+            self.frames_seen = True
+        elif tag == "frame" and parent == "frames":
+            ftype = attrs.get("type", "normal").strip()
+            line = self.p.CurrentLineNumber
+            if ftype != "normal":
+                self.skipped[ftype] = self.skipped.get(ftype, 0) + 1
+                self.frame = None
+                return
+            if not self.segments:
+                self.fail("a normal frame before any <segment> definition")
+            t = self.attr_float(attrs, "time", "<frame>")
+            idx = attrs.get("index")
+            if idx is not None and idx.strip() != "":
+                try:
+                    idx = int(idx)
+                except ValueError:
+                    self.fail(f"<frame> index={idx[:40]!r} is not an integer")
+            else:
+                idx = None
+            self.frame = {"line": line, "time": t, "index": idx, "orientation": None, "position": None}
+        if tag in _TEXT_ELEMENTS and self._wants_text(tag):
+            self.text = []
+            self.text_line = self.p.CurrentLineNumber
+
+    def _wants_text(self, tag: str) -> bool:
+        if tag == "pos_b":
+            return self.point is not None
+        if tag in ("connector1", "connector2"):
+            return self.joint is not None
+        return self.frame is not None and len(self.stack) >= 2 and self.stack[-2] == "frame"
+
+    def chars(self, data: str) -> None:
+        if self.text is not None:
+            self.text.append(data)
+
+    def end(self, name: str) -> None:
+        tag = self.stack.pop()
+        if self.text is not None and tag in _TEXT_ELEMENTS:
+            text = "".join(self.text)
+            self.text = None
+            self._text_element(tag, text, self.text_line)
+        if tag == "point" and self.point is not None:
+            seg = self.segments[-1]
+            if self.point["pos"] is None:
+                self.fail(f"point {self.point['label']!r} of segment {seg['label']!r} has no <pos_b>", self.point["line"])
+            seg["points"].setdefault(self.point["label"], self.point["pos"])
+            self.point = None
+        elif tag == "joint" and self.joint is not None:
+            for c in ("connector1", "connector2"):
+                if c not in self.joint:
+                    self.fail(f"joint {self.joint['label']!r} has no <{c}>", self.joint["line"])
+            self.joints.append(self.joint)
+            self.joint = None
+        elif tag == "frame" and self.frame is not None:
+            f = self.frame
+            for key in ("orientation", "position"):
+                if f[key] is None:
+                    self.fail(f"normal frame (index {f['index']}) has no <{key}>", f["line"])
+            self.orient.append(f["orientation"])
+            self.pos.append(f["position"])
+            self.times_ms.append(f["time"])
+            self.indices.append(f["index"])
+            self.frame_lines.append(f["line"])
+            self.frame = None
+
+    def _text_element(self, tag: str, text: str, line: int) -> None:
+        if tag == "pos_b":
+            v = self.numbers(text, f"<pos_b> of point {self.point['label']!r}", line)
+            if v.size != 3:
+                self.fail(f"<pos_b> of point {self.point['label']!r}: expected 3 numbers, got {v.size}", line)
+            self.point["pos"] = v
+        elif tag in ("connector1", "connector2"):
+            seg, sep, pt = text.strip().partition("/")
+            if not sep or not seg or not pt:
+                self.fail(f"joint {self.joint['label']!r}: <{tag}> {text.strip()[:60]!r} is not 'Segment/point'", line)
+            self.joint[tag] = (seg, pt, line)
+        else:
+            S = len(self.segments)
+            k = 4 if tag == "orientation" else 3
+            v = self.numbers(text, f"<{tag}>", line)
+            if v.size != k * S:
+                self.fail(f"<{tag}> holds {v.size} numbers, expected {k} per segment × {S} segments = {k * S}", line)
+            self.frame[tag] = v.reshape(S, k)
+
+
+def _is_float(tok: str) -> bool:
+    try:
+        float(tok)
+    except ValueError:
+        return False
+    return True
+
+
+def read_mvnx(path: str | Path, gap_tolerance_m: float = GAP_TOLERANCE_M) -> Motion:
+    """Read an Xsens MVNX file into a :class:`~mocapkit.skeleton.Motion` (see the module docstring).
+
+    Parameters
+    ----------
+    path
+        The ``.mvnx`` file.
+    gap_tolerance_m
+        Largest difference (metres) between a joint's offset from the connector points and the
+        file's own per-frame local translation for the joint to keep a constant offset; beyond it
+        the joint gets position channels (soft body).
+    """
+    src = str(path)
+    parser = expat.ParserCreate()
+    parser.buffer_text = True
+    r = _Reader(src, parser)
+    parser.StartElementHandler = r.start
+    parser.EndElementHandler = r.end
+    parser.CharacterDataHandler = r.chars
+    try:
+        with open(path, "rb") as fh:
+            parser.ParseFile(fh)
+    except expat.ExpatError as e:
+        raise MocapFormatError(src, e.lineno, f"malformed XML: {expat.ErrorString(e.code)} (column {e.offset + 1})") from None
+    except (FileNotFoundError, IsADirectoryError, PermissionError) as e:
+        raise MocapFormatError(src, None, e.strerror or str(e)) from None
+    return _build(r, src, float(gap_tolerance_m))
+
+
+def _build(r: _Reader, src: str, tol: float) -> Motion:
+    if r.subject is None:
+        raise MocapFormatError(src, None, "no <subject> element")
+    if not r.segments:
+        raise MocapFormatError(src, r.subject_line, "no <segments>/<segment> definitions in the subject")
+    if not r.orient:
+        kinds = ", ".join(f"{v} {k}" for k, v in r.skipped.items()) or "none"
+        raise MocapFormatError(src, None, f"no normal frames (type=\"normal\") in <frames> (other frames: {kinds})")
+    segs = r.segments
+    S = len(segs)
+    labels = [s["label"] for s in segs]
+    warnings: list[str] = []
+
+    # hierarchy from the joints
+    parent = [-1] * S
+    offset = np.zeros((S, 3))
+    joint_of: dict[int, dict] = {}
+    for jt in r.joints:
+        (ps, pp, l1), (cs, cp, l2) = jt["connector1"], jt["connector2"]
+        for seg, pt, ln in ((ps, pp, l1), (cs, cp, l2)):
+            if seg not in r.seg_index:
+                raise MocapFormatError(src, ln, f"joint {jt['label']!r}: no segment {seg!r} (segments: {', '.join(labels[:6])}, …)")
+            if pt not in segs[r.seg_index[seg]]["points"]:
+                raise MocapFormatError(src, ln, f"joint {jt['label']!r}: segment {seg!r} has no point {pt!r}")
+        p, c = r.seg_index[ps], r.seg_index[cs]
+        if p == c:
+            raise MocapFormatError(src, l2, f"joint {jt['label']!r} connects segment {ps!r} to itself")
+        if parent[c] >= 0:
+            raise MocapFormatError(src, l2, f"joint {jt['label']!r}: segment {cs!r} already has the parent "
+                                             f"{labels[parent[c]]!r} (joint {joint_of[c]['label']!r})")
+        parent[c] = p
+        joint_of[c] = jt
+        offset[c] = segs[p]["points"][pp] - segs[c]["points"][cp]
+    if not r.joints:
+        warnings.append("no <joints>: every segment is a root with its own position channels")
+
+    # topological order, file order where possible
+    order: list[int] = []
+    placed: set[int] = set()
+    while len(order) < S:
+        added = False
+        for s in range(S):
+            if s not in placed and (parent[s] < 0 or parent[s] in placed):
+                order.append(s)
+                placed.add(s)
+                added = True
+        if not added:
+            cyc = [labels[s] for s in range(S) if s not in placed]
+            raise MocapFormatError(src, joint_of[next(s for s in range(S) if s not in placed)]["line"],
+                                   f"the joints form a cycle through segments {', '.join(cyc)}")
+
+    G = np.stack(r.orient)  # (N, S, 4) in file segment order
+    P = np.stack(r.pos)     # (N, S, 3)
+    N = G.shape[0]
+    norm = np.linalg.norm(G, axis=-1)
+    if np.any(norm < 1e-6):
+        n, s = map(int, np.argwhere(norm < 1e-6)[0])
+        raise MocapFormatError(src, r.frame_lines[n], f"segment {labels[s]!r}: zero orientation quaternion")
+    G = G / norm[..., None]
+
+    times, rate, times_from = _times(r, src, warnings)
+
+    new_index = {s: k for k, s in enumerate(order)}
+    rot = np.empty((N, S, 4))
+    trans = np.empty((N, S, 3))
+    gaps: dict[str, float] = {}
+    animated: list[str] = []
+    channels = []
+    offsets = np.zeros((S, 3))
+    for k, s in enumerate(order):
+        p = parent[s]
+        if p < 0:
+            rot[:, k] = G[:, s]
+            trans[:, k] = P[:, s]
+            offsets[k] = P[0, s]
+            channels.append(ROOT_CHANNELS)
+            continue
+        conj = G[:, p] * np.array([1.0, -1.0, -1.0, -1.0])
+        rot[:, k] = multiply(conj, G[:, s])
+        Rp = quat_to_matrix(G[:, p])
+        local_t = np.einsum("nba,nb->na", Rp, P[:, s] - P[:, p])  # R_p^T (p_s - p_p)
+        gap = float(np.linalg.norm(local_t - offset[s], axis=-1).max())
+        gaps[labels[s]] = gap
+        offsets[k] = offset[s]
+        if gap > tol:
+            trans[:, k] = local_t
+            animated.append(labels[s])
+            channels.append(ANIMATED_CHANNELS)
+        else:
+            trans[:, k] = offset[s]
+            channels.append(JOINT_CHANNELS)
+    if animated:
+        worst = max(animated, key=gaps.get)
+        warnings.append(
+            f"segment lengths vary: {len(animated)} joint(s) move up to {gaps[worst] * 1000:.3g} mm ({worst}) away from "
+            f"their connector points (tolerance {tol * 1000:g} mm); they get position channels so that forward "
+            "kinematics reproduces the file's segment positions"
+        )
+
+    children = {parent[s] for s in range(S) if parent[s] >= 0}
+    end_sites = []
+    for k, s in enumerate(order):
+        if s in children:
+            continue
+        own = joint_of[s]["connector2"][1] if s in joint_of else None
+        pts = [(float(np.linalg.norm(v)), name, v) for name, v in segs[s]["points"].items() if name != own]
+        if pts:
+            d, _, v = max(pts, key=lambda x: x[0])
+            if d > 0:
+                end_sites.append((k, tuple(float(x) for x in v)))
+
+    sk = Skeleton(
+        names=tuple(labels[s] for s in order),
+        parents=np.array([-1 if parent[s] < 0 else new_index[parent[s]] for s in order]),
+        offsets=offsets,
+        channels=tuple(channels),
+        end_sites=tuple(end_sites),
+        meta={"format": "mvnx", "length_unit_cm": 100.0, "up_axis": "Z",
+              "points": {labels[s]: {n: tuple(map(float, v)) for n, v in segs[s]["points"].items()} for s in order}},
+    )
+    meta = {
+        "format": "mvnx",
+        "frame_time": 1.0 / rate,
+        "length_unit_cm": 100.0,
+        "up_axis": "Z",
+        "mvnx_version": r.version,
+        "mvn_version": r.mvn_version,
+        "subject": r.subject.get("label"),
+        "configuration": r.subject.get("configuration"),
+        "skipped_frames": dict(r.skipped),
+        "n_skipped_frames": int(sum(r.skipped.values())),
+        "times_from": times_from,
+        "joint_gap_m": gaps,
+        "max_joint_gap_m": max(gaps.values(), default=0.0),
+        "gap_tolerance_m": tol,
+        "animated_offsets": animated,
+        "warnings": warnings,
+    }
+    try:
+        return Motion(sk, times, rot, trans, None, src, meta)
+    except InvalidSignalError as exc:
+        raise MocapFormatError(src, None, str(exc)) from None
+
+
+def _times(r: _Reader, src: str, warnings: list[str]) -> tuple[np.ndarray, float, str]:
+    """Frame times (s), the rate and where they came from."""
+    N = len(r.orient)
+    rate = r.subject.get("_rate")
+    has_t = all(t is not None for t in r.times_ms)
+    t_file = np.array(r.times_ms, dtype=np.float64) / 1000.0 if has_t else None
+    if has_t and N > 1:
+        bad = np.flatnonzero(np.diff(t_file) <= 0)
+        if bad.size:
+            n = int(bad[0]) + 1
+            raise MocapFormatError(src, r.frame_lines[n], f"frame time {r.times_ms[n]:g} ms is not after the previous "
+                                                         f"frame's {r.times_ms[n - 1]:g} ms")
+    if rate is None:
+        if not has_t:
+            raise MocapFormatError(src, r.subject_line, "no frameRate on <subject> and no time attribute on the frames")
+        if N < 2:
+            raise MocapFormatError(src, r.subject_line, "no frameRate on <subject> and a single frame: the rate is unknown")
+        return t_file, 1.0 / float(np.median(np.diff(t_file))), "time attribute (no frameRate)"
+    if all(i is not None for i in r.indices):
+        k = np.array(r.indices, dtype=np.float64)
+        if N > 1 and np.any(np.diff(k) <= 0):
+            n = int(np.flatnonzero(np.diff(k) <= 0)[0]) + 1
+            raise MocapFormatError(src, r.frame_lines[n], f"frame index {r.indices[n]} does not follow index {r.indices[n - 1]}")
+        k -= k[0]
+    else:
+        k = np.arange(N, dtype=np.float64)
+    t0 = t_file[0] if has_t else 0.0
+    ideal = t0 + k / rate
+    if has_t:
+        dev = float(np.abs(t_file - ideal).max())
+        if dev > 0.0005 + 1e-9:  # whole milliseconds round by at most 0.5 ms
+            warnings.append(f"frame times differ from frameRate {rate:g} Hz by up to {dev * 1000:.3g} ms; "
+                            "the frames' time attribute is used")
+            return t_file, rate, "time attribute"
+    if not np.all(np.isfinite(ideal)):
+        raise MocapFormatError(src, r.subject_line, f"frameRate {rate!r} gives non-finite frame times")
+    return ideal, rate, "frameRate"
