@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import math
 import os
 import stat
 from pathlib import Path
@@ -21,6 +22,7 @@ from mocapkit.io import (
     format_row,
     load_signals,
     read_imu_csv,
+    read_imu_file,
     read_imu_text,
     read_sensor_folder,
     register_reader,
@@ -172,14 +174,27 @@ def test_xsens_wraparound(tests_data: Path) -> None:
 
 
 def test_xsens_without_counter_uses_row_index(tmp_path: Path) -> None:
-    text = ("// Sample rate: 25Hz\nSampleTimeFine\tQuat_q0\tQuat_q1\tQuat_q2\tQuat_q3\n"
+    text = ("// Sample rate: 25Hz\nAcc_X\tQuat_q0\tQuat_q1\tQuat_q2\tQuat_q3\n"
             "7\t1\t0\t0\t0\n3\t0\t1\t0\t0\n9\t0\t0\t1\t0\n")
     sig = read_imu_csv(_write(tmp_path / "x.txt", text))
     assert sig.times.tolist() == [0.0, 1 / 25, 2 / 25]
     assert sig.values.tolist() == [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]
+    assert sig.meta["time_column"] is None and sig.meta["time_unit"] is None
     # no rate line: the rate argument is used
     sig = read_imu_csv(_write(tmp_path / "y.txt", text.split("\n", 1)[1]), rate=10)
     assert sig.times.tolist() == [0.0, 0.1, 0.2]
+
+
+def test_mt_manager_sample_time_fine_is_10khz_ticks(tmp_path: Path) -> None:
+    # without a counter, MT Manager's SampleTimeFine (10 kHz ticks, uint32) is the clock
+    text = ("// Update Rate: 100.0Hz\nSampleTimeFine\tQuat_q0\tQuat_q1\tQuat_q2\tQuat_q3\n"
+            "4294967196\t1\t0\t0\t0\n4294967296\t0\t1\t0\t0\n100\t0\t0\t1\t0\n")
+    with pytest.raises(MocapFormatError, match=r"x\.txt:5: .*not a wrap-around"):  # beyond uint32
+        read_imu_csv(_write(tmp_path / "x.txt", text))
+    text = text.replace("4294967296", "4294967295")
+    sig = read_imu_csv(_write(tmp_path / "y.txt", text))
+    assert sig.meta["time_column"] == "SampleTimeFine" and sig.meta["time_unit"] == "tick10k"
+    assert sig.times.tolist() == [4294967196 / 1e4, 4294967295 / 1e4, (2**32 + 100) / 1e4]
 
 
 def test_xsens_counter_errors(tmp_path: Path) -> None:
@@ -315,19 +330,19 @@ def test_only_comment_lines(tmp_path: Path) -> None:
 
 
 def test_unrecognised_header(tmp_path: Path) -> None:
-    p = _write(tmp_path / "u.csv", "Timestamp,W,X,Y,Z\n1,1,0,0,0\n")
+    p = _write(tmp_path / "u.csv", "Timestamp,Acc X,Acc Y,Acc Z\n1,1,0,0\n")
     msg = _assert_where(_error(p), p, 1)
-    assert "unrecognised header 'Timestamp,W,X,Y,Z'" in msg
-    for accepted in ("Timestamp (us),W,X,Y,Z", "Time (s),W,X,Y,Z", "Packet number,Element 1", "Quat_w",
-                     "Quat_q0", "time,w,x,y,z"):
-        assert accepted in msg
-    # the header is looked for right at the top (after blank lines only)
+    assert "no orientation columns in the header 'Timestamp,Acc X,Acc Y,Acc Z'" in msg
+    for looked_for in ("W Element", "Quat_W", "qw", "q0..q3", "Element 1..4", "Mat[1][1]", "Roll",
+                       "--quaternion-columns"):
+        assert looked_for in msg
+    # data before any header line
     p = _write(tmp_path / "x.csv", "1,1,0,0,0\ntime,w,x,y,z\n")
-    _assert_where(_error(p), p, 1)
-    # '//' lines belong to Xsens exports only
-    p = _write(tmp_path / "y.csv", "// Sample rate: 50Hz\ntime,w,x,y,z\n0,1,0,0,0\n")
-    msg = _assert_where(_error(p), p, 1)
-    assert "Xsens" in msg
+    assert "before any header" in _assert_where(_error(p), p, 1)
+    # comment and metadata lines may come before any header now
+    p = _write(tmp_path / "y.csv", "# exported by hand\nSample rate:,50\ntime,w,x,y,z\n0,1,0,0,0\n")
+    sig = read_imu_csv(p)
+    assert sig.meta["rate"] == 50.0 and sig.meta["header_line"] == 3
 
 
 def test_wrong_column_count(tmp_path: Path) -> None:
@@ -604,6 +619,18 @@ _BASES = {
                b"1,1,0,0,0\n2,0.5,0.5,0.5,0.5\n4,0,1,0,0\n", 100.0),
     "generic": (("\ufeff" + GENERIC.replace("\n", "\r\n")).encode(), None),
 }
+_IMU_DIR = Path(__file__).resolve().parent / "data" / "imu"
+for _key, _rel, _n, _rate in (
+    ("dot", "xsens-dot/LFemur_excerpt.csv", 16, None),
+    ("matrix", "xsens-mtmanager/MT_012005D6_matrix_excerpt.txt", 10, None),
+    ("euler", "xsens-mtmanager/euler_written.txt", 12, None),
+    ("optitrack", "optitrack/take_lost_body.csv", 16, None),
+    ("apdm", "apdm/imuData01_excerpt.csv", 8, None),
+    ("shimmer", "shimmer/Session1_Shimmer_D0B5_Calibrated_PC.csv", 9, None),
+    ("logger", "sensor-logger/Orientation.csv", 6, None),
+    ("legacy3", "xio/legacy_QuaternionData.csv", 8, 128.0),
+):
+    _BASES[_key] = (b"\n".join((_IMU_DIR / _rel).read_bytes().split(b"\n")[:_n]) + b"\n", _rate)
 _INTERESTING = b"0123456789.,-+eE\t\r\n /naifINF\xff\xef\xbb\xbf\x00"
 
 
@@ -644,20 +671,385 @@ def fuzz_dir(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("fuzz")
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=500, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(case=_mutated())
 def test_mutated_files_fail_only_with_format_error(fuzz_dir: Path, case: tuple[bytes, float | None]) -> None:
     data, rate = case
     path = fuzz_dir / "m.csv"
     path.write_bytes(data)
-    for reader in (lambda: read_imu_csv(path, rate=rate),
-                   lambda: read_imu_text(data.decode("latin-1"), "<stdin>", rate=rate)):
+    from mocapkit.io.streamcsv import iter_samples
+
+    for reader in (lambda: list(read_imu_file(path, rate=rate).values()),
+                   lambda: [read_imu_text(data.decode("latin-1"), "<stdin>", rate=rate)],
+                   lambda: list(iter_samples(data.decode("latin-1").splitlines(), "<stdin>", rate=rate))):
         try:
-            sig = reader()
+            out = reader()
         except MocapFormatError as exc:
             assert exc.line is None or exc.line >= 1
             assert str(exc).startswith(exc.path)
             continue
-        assert sig.values.shape == (len(sig), 4)
-        assert np.all(np.diff(sig.times) > 0)
-        assert np.all(np.isfinite(sig.values))
+        for sig in out:
+            if isinstance(sig, tuple):      # a streamed sample
+                assert np.all(np.isfinite(sig[2])) and math.isfinite(sig[1])
+                continue
+            assert sig.values.shape == (len(sig), 4)
+            assert np.all(np.diff(sig.times) > 0)
+            assert np.all(np.isfinite(sig.values))
+
+
+# ------------------------------------------------------------------------------------------------
+# header-driven layouts: real excerpts and excerpts written in the vendors' documented layouts
+# (each file is parsed independently here with the csv module and compared exactly)
+# ------------------------------------------------------------------------------------------------
+
+IMU = Path(__file__).resolve().parent / "data" / "imu"
+
+
+def _table(path: Path, header_line: int, delimiter: str = ",", skip: int = 0) -> tuple[list[str], list[list[str]]]:
+    """Header names (1-based ``header_line``) and the data rows after ``skip`` more lines."""
+    with open(path, newline="", encoding="utf-8") as fh:
+        rows = list(csv.reader(fh, delimiter=delimiter))
+    names = [n.strip() for n in rows[header_line - 1]]
+    data = [r for r in rows[header_line + skip:] if any(c.strip() for c in r)]
+    return names, data
+
+
+def _cols(names: list[str], data: list[list[str]], wanted: list[str]) -> np.ndarray:
+    idx = [names.index(w) for w in wanted]
+    return np.array([[float(r[i]) for i in idx] for r in data])
+
+
+def _matrix_of(q: np.ndarray) -> np.ndarray:
+    """Rotation matrices of unit scalar-first quaternions (the Xsens manual's formula for R_GS)."""
+    w, x, y, z = (q / np.linalg.norm(q, axis=1, keepdims=True)).T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+    ], 1)
+
+
+def test_xsens_dot_excerpt() -> None:
+    path = IMU / "xsens-dot" / "LFemur_excerpt.csv"
+    names, data = _table(path, 12)
+    sig = read_imu_csv(path)
+    assert sig.meta["format"] == "xsens-dot" and sig.meta["rate"] == 60.0
+    assert sig.meta["time_column"] == "SampleTimeFine" and sig.meta["time_unit"] == "us"
+    assert np.array_equal(sig.times, [int(r[1]) / 1e6 for r in data])          # device clock, µs
+    assert np.array_equal(sig.values, _cols(names, data, ["Quat_W", "Quat_X", "Quat_Y", "Quat_Z"]))
+    # the clock agrees with the packet counter at the stated 60 Hz (real-time streaming drops packets)
+    counter = np.array([int(r[0]) for r in data])
+    assert np.abs(np.diff(sig.times) * 60 - np.diff(counter)).max() < 1e-3
+    assert np.diff(counter).max() > 1
+
+
+@pytest.mark.parametrize("name", ["MT46_01-000_00B42D4D.txt", "MT46_trailing_tab.txt"])
+def test_mt_manager_old_header(name: str) -> None:
+    path = IMU / "xsens-mtmanager" / name
+    names, data = _table(path, 5, "\t")
+    if name == "MT46_trailing_tab.txt":   # every data row ends with a tab: one field more than the header
+        assert all(len(r) == len(names) + 1 and r[-1] == "" for r in data)
+    sig = read_imu_csv(path)
+    assert sig.meta["format"] == "xsens" and sig.meta["rate"] == 100.0
+    assert sig.meta["time_column"] == "PacketCounter"        # SampleTimeFine is empty in this export
+    assert np.array_equal(sig.times, [(int(r[0]) - 4097) / 100 for r in data])
+    assert np.array_equal(sig.values, _cols(names, data, ["Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3"]))
+
+
+def test_mt_manager_rotation_matrix() -> None:
+    path = IMU / "xsens-mtmanager" / "MT_012005D6_matrix_excerpt.txt"
+    names, data = _table(path, 6, "\t")
+    sig = read_imu_csv(path)
+    assert "from_matrix" in sig.meta["conversion"] and "R_GS" in sig.meta["conversion"]
+    assert np.array_equal(sig.times, [(int(r[0]) - 472) / 100 for r in data])
+    written = np.array([[[float(r[names.index(f"Mat[{i}][{j}]")]) for j in (1, 2, 3)] for i in (1, 2, 3)]
+                        for r in data])
+    np.testing.assert_allclose(np.linalg.norm(sig.values, axis=1), 1.0, atol=1e-12)
+    # the quaternion rotates like the written matrix (entries have 6 decimals)
+    np.testing.assert_allclose(_matrix_of(sig.values), written, atol=5e-6)
+    # and the listing is column-major: Mat[2][1] (row 2, column 1) comes right after Mat[1][1]
+    assert names[names.index("Mat[1][1]") + 1] == "Mat[2][1]"
+
+
+def test_mt_manager_euler_degrees_and_counter_wrap() -> None:
+    path = IMU / "xsens-mtmanager" / "euler_written.txt"
+    names, data = _table(path, 5, "\t")
+    sig = read_imu_csv(path)
+    assert sig.times.tolist() == [i / 100 for i in range(20)]       # 65530..65535, 0, 1, ...: uint16 wrap
+    assert "Rz(yaw)·Ry(pitch)·Rx(roll)" in sig.meta["conversion"] and "degrees" in sig.meta["conversion"]
+    r, p, y = np.radians(_cols(names, data, ["Roll", "Pitch", "Yaw"])).T
+    c, s = np.cos, np.sin
+    one, zero = np.ones_like(r), np.zeros_like(r)
+    rx = np.stack([np.stack([one, zero, zero], -1), np.stack([zero, c(r), -s(r)], -1),
+                   np.stack([zero, s(r), c(r)], -1)], 1)
+    ry = np.stack([np.stack([c(p), zero, s(p)], -1), np.stack([zero, one, zero], -1),
+                   np.stack([-s(p), zero, c(p)], -1)], 1)
+    rz = np.stack([np.stack([c(y), -s(y), zero], -1), np.stack([s(y), c(y), zero], -1),
+                   np.stack([zero, zero, one], -1)], 1)
+    np.testing.assert_allclose(_matrix_of(sig.values), rz @ ry @ rx, atol=1e-12)
+
+
+def test_rotation_matrix_that_is_not_a_rotation(tmp_path: Path) -> None:
+    head = "// Update Rate: 100.0Hz\nPacketCounter\t" + "\t".join(
+        f"Mat[{i}][{j}]" for j in (1, 2, 3) for i in (1, 2, 3)) + "\n"
+    p = _write(tmp_path / "m.txt", head + "1\t1\t0\t0\t0\t1\t0\t0\t0\t1\n2\t2\t0\t0\t0\t1\t0\t0\t0\t1\n")
+    assert "not a rotation matrix" in _assert_where(_error(p), p, 4)
+
+
+def test_apdm_excerpt(tmp_path: Path) -> None:
+    path = IMU / "apdm" / "imuData01_excerpt.csv"
+    names, data = _table(path, 3, skip=1)       # a units row under the header
+    sigs = load_signals(path)
+    assert list(sigs) == ["Static", "Upper", "Middle", "Lower"]
+    for sensor, sig in sigs.items():
+        assert sig.name == sensor and sig.meta["sensor"] == sensor and sig.meta["format"] == "apdm"
+        assert sig.meta["rate"] == 128.0 and sig.meta["time_unit"] == "s"
+        assert np.array_equal(sig.times, [float(r[0]) for r in data])
+        want = [f"{sensor}/Orientation/{c}" for c in ("Scalar", "X", "Y", "Z")]
+        assert np.array_equal(sig.values, _cols(names, data, want))
+    # the short component name /S is read the same
+    text = path.read_text().replace("/Orientation/Scalar", "/Orientation/S")
+    short = load_signals(_write(tmp_path / "apdm_s.csv", text))
+    assert all(np.array_equal(short[k].values, sigs[k].values) for k in sigs)
+    with pytest.raises(MocapFormatError, match="holds 4 sensors"):
+        read_imu_csv(path)
+
+
+def test_optitrack_excerpt() -> None:
+    path = IMU / "optitrack" / "take_excerpt.csv"
+    _, data = _table(path, 7)
+    sigs = load_signals(path)
+    assert list(sigs) == ["Rigid Body 1"]
+    sig = sigs["Rigid Body 1"]
+    assert sig.meta["format"] == "optitrack" and sig.meta["rate"] == 120.0 and sig.meta["warnings"] == []
+    assert np.array_equal(sig.times, [float(r[1]) for r in data])
+    xyzw = np.array([[float(v) for v in r[2:6]] for r in data])       # Rotation X,Y,Z,W: scalar-last
+    assert np.array_equal(sig.values, xyzw[:, [3, 0, 1, 2]])
+
+
+def test_optitrack_lost_body_rows_dropped_and_counted() -> None:
+    path = IMU / "optitrack" / "take_lost_body.csv"
+    _, data = _table(path, 7)
+    kept = [r for r in data if r[2] != ""]
+    assert len(data) - len(kept) == 3
+    sig = load_signals(path)["Rigid Body 1"]
+    assert np.array_equal(sig.times, [float(r[1]) for r in kept])
+    assert np.array_equal(sig.values, np.array([[float(v) for v in r[2:6]] for r in kept])[:, [3, 0, 1, 2]])
+    assert len(sig.meta["warnings"]) == 1 and "3 of 40 rows dropped" in sig.meta["warnings"][0]
+
+
+def test_ximu3_excerpt() -> None:
+    path = IMU / "xio" / "ximu3_Quaternion.csv"
+    names, data = _table(path, 1)
+    sig = read_imu_csv(path)
+    assert sig.meta["format"] == "x-imu3" and sig.meta["time_unit"] == "us"
+    assert np.array_equal(sig.times, [int(r[0]) / 1e6 for r in data])
+    assert np.array_equal(sig.values, _cols(names, data, ["W Element", "X Element", "Y Element", "Z Element"]))
+
+
+def test_ngimu_excerpt() -> None:
+    path = IMU / "xio" / "ngimu_quaternion.csv"
+    names, data = _table(path, 1)
+    sig = read_imu_csv(path)
+    assert sig.meta["format"] == "ngimu" and sig.meta["time_unit"] == "s"
+    assert np.array_equal(sig.times, [float(r[0]) for r in data])
+    assert np.array_equal(sig.values, _cols(names, data, ["W", "X", "Y", "Z"]))
+
+
+def test_legacy_xio_counter_steps_by_three() -> None:
+    path = IMU / "xio" / "legacy_QuaternionData.csv"
+    names, data = _table(path, 1)
+    sig = read_imu_csv(path, rate=128)
+    packets = [int(r[0]) for r in data]
+    assert np.array_equal(sig.times, [(p - packets[0]) / (128 * 3) for p in packets])
+    assert np.median(np.diff(sig.times)) == pytest.approx(1 / 128)     # not a third of the rate
+    assert any("steps by 3" in w for w in sig.meta["warnings"])
+    assert np.array_equal(sig.values, _cols(names, data, ["Element 1", "Element 2", "Element 3", "Element 4"]))
+
+
+def test_shimmer_excerpt() -> None:
+    path = IMU / "shimmer" / "Session1_Shimmer_D0B5_Calibrated_PC.csv"
+    names, data = _table(path, 2, "\t", skip=2)     # "sep=\t" line; CAL/RAW and units rows under the header
+    sig = read_imu_csv(path)
+    assert sig.meta["format"] == "shimmer" and sig.meta["time_unit"] == "ms"   # from the units row
+    assert np.array_equal(sig.times, [float(r[0]) / 1e3 for r in data])
+    want = [f"Shimmer_D0B5_Quat_Madge_9DOF_{c}_CAL" for c in "WXYZ"]
+    assert np.array_equal(sig.values, _cols(names, data, want))
+
+
+def test_metawear_excerpt() -> None:
+    path = IMU / "metawear" / "MetaWear_Quaternion.csv"
+    names, data = _table(path, 1)
+    sig = read_imu_csv(path)
+    assert sig.meta["format"] == "metawear" and sig.meta["time_column"] == "epoc (ms)"
+    assert np.array_equal(sig.times, [int(r[0]) / 1e3 for r in data])
+    assert np.array_equal(sig.values, _cols(names, data, ["w (number)", "x (number)", "y (number)", "z (number)"]))
+
+
+def test_sensor_logger_orientation_any_column_order() -> None:
+    path = IMU / "sensor-logger" / "Orientation.csv"
+    names, data = _table(path, 1)
+    assert names[2:6] == ["qz", "qy", "qx", "qw"]
+    sig = read_imu_csv(path)
+    assert sig.meta["format"] == "sensor-logger" and sig.meta["time_unit"] == "ns"
+    assert any("inferred from the magnitude" in w for w in sig.meta["warnings"])
+    assert np.array_equal(sig.times, [int(r[0]) / 1e9 for r in data])
+    assert np.array_equal(sig.values, _cols(names, data, ["qw", "qx", "qy", "qz"]))   # scalar-first out
+    assert sig.meta["conversion"] is None      # roll/pitch/yaw are ignored when a quaternion is present
+
+
+# ------------------------------------------------------------------------------------------------
+# delimiters, overrides, ambiguity
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("text", [
+    "Time (s);W;X;Y;Z\n0.5;1;0;0;0\n0.75;0;1;0;0\n",
+    "time qw qx qy qz\n0.5  1 0 0 0\n0.75 0 1 0 0\n",
+    "sep=;\nTime (s);W;X;Y;Z\n0.5;1;0;0;0\n0.75;0;1;0;0\n",
+    "Time (s)\tW\tX\tY\tZ\t\n0.5\t1\t0\t0\t0\t\n0.75\t0\t1\t0\t0\t\t\n",
+    "# a comment\nTime (s),quaternion.w,quaternion.x,quaternion.y,quaternion.z,\n0.5,1,0,0,0,,\n0.75,0,1,0,0,\n",
+    "Time (s),quaternionW,quaternionX,quaternionY,quaternionZ\n0.5,1,0,0,0\n0.75,0,1,0,0\n",
+    "Time (s),Quat_W,Quat_X,Quat_Y,Quat_Z\n0.5,1,0,0,0\n0.75,0,1,0,0\n",
+    "Time (s),q0,q1,q2,q3\n0.5,1,0,0,0\n0.75,0,1,0,0\n",
+    "Time (s),X,W,Z,Y\n0.5,0,1,0,0\n0.75,1,0,0,0\n",
+], ids=["semicolon", "whitespace", "sep-line", "tab-trailing", "quaternion.w", "quaternionW", "Quat_W", "q0",
+        "shuffled"])
+def test_delimiters_and_names(tmp_path: Path, text: str) -> None:
+    sig = read_imu_csv(_write(tmp_path / "d.csv", text))
+    assert sig.times.tolist() == [0.5, 0.75]
+    assert sig.values.tolist() == [[1, 0, 0, 0], [0, 1, 0, 0]]
+
+
+def test_override_time_column_and_unit(tmp_path: Path) -> None:
+    path = IMU / "sensor-logger" / "Orientation.csv"
+    names, data = _table(path, 1)
+    sig = read_imu_csv(path, time_column="seconds_elapsed")
+    assert sig.meta["time_column"] == "seconds_elapsed"
+    assert np.array_equal(sig.times, [float(r[1]) for r in data])
+    p = _write(tmp_path / "ms.csv", "t,qw,qx,qy,qz\n1500,1,0,0,0\n1520,0,1,0,0\n")
+    assert read_imu_csv(p).times.tolist() == [1500.0, 1520.0]               # a bare 't' is seconds
+    assert read_imu_csv(p, time_unit="ms").times.tolist() == [1.5, 1.52]
+    counted = read_imu_csv(p, time_unit="counter", rate=50)     # the rate is the rows' rate
+    assert counted.times.tolist() == [0.0, 1 / 50] and "steps by 20" in counted.meta["warnings"][0]
+    with pytest.raises(InvalidParameterError):
+        read_imu_csv(p, time_unit="fortnights")
+    msg = _assert_where(_error_kw(p, time_column="Zeit"), p, 1)
+    assert "'Zeit'" in msg and "'t'" in msg and "'qw'" in msg
+
+
+def _error_kw(path: Path, **kw) -> MocapFormatError:
+    with pytest.raises(MocapFormatError) as info:
+        read_imu_csv(path, **kw)
+    return info.value
+
+
+def test_override_quaternion_columns_and_scalar_last(tmp_path: Path) -> None:
+    p = _write(tmp_path / "two.csv", "Time (s),Quat_W,Quat_X,Quat_Y,Quat_Z,qw,qx,qy,qz\n"
+                                     "0,1,0,0,0,0,1,0,0\n1,0,0,1,0,0,0,0,1\n")
+    msg = _assert_where(_error(p), p, 1)
+    assert "(Quat_W, Quat_X, Quat_Y, Quat_Z)" in msg and "(qw, qx, qy, qz)" in msg
+    assert "--quaternion-columns" in msg
+    sig = read_imu_csv(p, quaternion_columns="qw,qx,qy,qz")
+    assert sig.values.tolist() == [[0, 1, 0, 0], [0, 0, 0, 1]]
+    sig = read_imu_csv(p, quaternion_columns=["Quat_W", "Quat_X", "Quat_Y", "Quat_Z"])
+    assert sig.values.tolist() == [[1, 0, 0, 0], [0, 0, 1, 0]]
+    # numbered columns that hold x, y, z, w
+    p = _write(tmp_path / "sl.csv", "Time (s),Element 1,Element 2,Element 3,Element 4\n0,0.1,0.2,0.3,0.9\n")
+    assert read_imu_csv(p).values.tolist() == [[0.1, 0.2, 0.3, 0.9]]
+    assert read_imu_csv(p, scalar_last=True).values.tolist() == [[0.9, 0.1, 0.2, 0.3]]
+    # named components have a known order: --scalar-last is refused for them
+    q = _write(tmp_path / "named.csv", "Time (s),qx,qy,qz,qw\n0,0.1,0.2,0.3,0.9\n")
+    assert "--scalar-last" in str(_error_kw(q, scalar_last=True))
+    assert read_imu_csv(q).values.tolist() == [[0.9, 0.1, 0.2, 0.3]]
+
+
+@pytest.mark.parametrize(("text", "words"), [
+    ("time,timestamp,w,x,y,z\n0,0,1,0,0,0\n", ["'time', 'timestamp'", "--time-column"]),
+    ("Frame,PacketCounter,w,x,y,z\n0,0,1,0,0,0\n", ["'Frame', 'PacketCounter'", "--time-column"]),
+    ("w,x,y,z\n1,0,0,0\n", ["no time column", "'w', 'x', 'y', 'z'", "--rate", "--time-column"]),
+    ("Frame,w,x,y,z\n0,1,0,0,0\n", ["'Frame'", "--rate"]),
+    ("time,roll,pitch,yaw\n0,1,2,3\n", ["roll, pitch, yaw", "without a unit"]),
+])
+def test_ambiguous_files_name_columns_and_flag(tmp_path: Path, text: str, words: list[str]) -> None:
+    p = _write(tmp_path / "amb.csv", text)
+    msg = _assert_where(_error(p), p, 1)
+    for w in words:
+        assert w in msg, msg
+
+
+def test_euler_with_units_in_names(tmp_path: Path) -> None:
+    p = _write(tmp_path / "e.csv", "time,roll (rad),pitch (rad),yaw (rad)\n0,0,0,1.5707963267948966\n")
+    sig = read_imu_csv(p)
+    np.testing.assert_allclose(sig.values, [[np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)]], atol=1e-15)
+    assert "radians" in sig.meta["conversion"]
+
+
+def test_cli_override_flags(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    def run(*args: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-m", "mocapkit.cli", *args], capture_output=True, text=True,
+                              timeout=300)
+
+    p = _write(tmp_path / "two.csv", "Time (s),Quat_W,Quat_X,Quat_Y,Quat_Z,qw,qx,qy,qz\n"
+                                     "0,1,0,0,0,0,1,0,0\n1,0,0,1,0,0,0,0,1\n")
+    r = run("info", str(p), "--json")
+    assert r.returncode == 2 and "--quaternion-columns" in r.stderr
+    r = run("info", str(p), "--json", "--quaternion-columns", "qw,qx,qy,qz", "--time-column", "Time (s)",
+            "--time-unit", "ms")
+    assert r.returncode == 0, r.stderr
+    assert '"samples": 2' in r.stdout and '"duration_s": 0.001' in r.stdout
+
+
+def test_stream_uses_the_same_header_detection() -> None:
+    from mocapkit.io.streamcsv import iter_samples
+
+    for path, kw in ((IMU / "xio" / "ximu3_Quaternion.csv", {}),
+                     (IMU / "xsens-mtmanager" / "MT46_trailing_tab.txt", {}),
+                     (IMU / "sensor-logger" / "Orientation.csv", {}),
+                     (IMU / "xsens-mtmanager" / "euler_written.txt", {}),
+                     (IMU / "xio" / "ngimu_quaternion.csv", {})):
+        sig = read_imu_csv(path, **kw)
+        with open(path, newline="") as fh:
+            got = list(iter_samples(fh, str(path), **kw))
+        assert np.array_equal([t for _, t, _ in got], sig.times), path
+        assert np.array_equal([q for _, _, q in got], sig.values), path
+    with open(IMU / "sensor-logger" / "Orientation.csv") as fh:
+        got = list(iter_samples(fh, "<stdin>", time_column="seconds_elapsed"))
+    assert got[0][1] == 0.216759663
+    with open(IMU / "apdm" / "imuData01_excerpt.csv") as fh, pytest.raises(MocapFormatError, match="one sensor"):
+        list(iter_samples(fh, "<stdin>"))
+
+
+def test_shared_imu_files_read_with_plausible_rates(shared_data: Path) -> None:
+    folder = shared_data / "imu"
+    expected = {"xsens-dot": 60, "xsens-mtmanager": 100, "apdm": 128, "optitrack": 120, "xio-lower-body": 50}
+    seen = set()
+    for sub, rate in expected.items():
+        paths = [folder / sub] if sub == "xio-lower-body" else sorted(p for p in (folder / sub).iterdir())
+        for path in paths:
+            sigs = load_signals(path)
+            assert sigs, path
+            for name, sig in sigs.items():
+                seen.add(sub)
+                step = float(np.min(np.diff(sig.times)))     # real logs drop samples: the shortest step
+                assert 1 / step == pytest.approx(rate, rel=0.1), (path, name)
+                assert len(sig) >= 5
+                assert np.abs(np.linalg.norm(sig.values, axis=1) - 1).max() < 1e-3, (path, name)
+    assert seen == set(expected)
+    assert set(p.name for p in folder.iterdir()) == set(expected)   # every shared IMU export is covered
+
+
+def test_sensor_logger_euler_only(tmp_path: Path) -> None:
+    """Without quaternion columns, the logger's roll/pitch/yaw (radians) give the same rotations."""
+    path = IMU / "sensor-logger" / "Orientation.csv"
+    names, data = _table(path, 1)
+    keep = [names.index(n) for n in ("time", "seconds_elapsed", "roll", "pitch", "yaw")]
+    text = "\n".join(",".join(row[i] for i in keep) for row in [names] + data) + "\n"
+    euler = read_imu_csv(_write(tmp_path / "Orientation.csv", text))
+    quat = read_imu_csv(path)
+    assert "radians" in euler.meta["conversion"]
+    assert np.array_equal(euler.times, quat.times)
+    np.testing.assert_allclose(_matrix_of(euler.values), _matrix_of(quat.values), atol=1e-12)

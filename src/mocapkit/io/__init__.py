@@ -4,10 +4,12 @@ from mocapkit.io.atomic import atomic_write_bytes, atomic_write_text, atomic_wri
 from mocapkit.io.imucsv import (
     ACCEPTED_HEADERS,
     READERS,
+    ColumnOptions,
     detect_format,
     format_row,
     load_signals,
     read_imu_csv,
+    read_imu_file,
     read_imu_text,
     read_sensor_folder,
     register_reader,
@@ -15,8 +17,16 @@ from mocapkit.io.imucsv import (
     write_signal_csv,
 )
 
+from mocapkit.io.loaders import kind_of, load, load_markers, load_motion, write_markers  # also registers .sto/.mot
+
 __all__ = [
+    "kind_of",
+    "load",
+    "load_markers",
+    "load_motion",
+    "write_markers",
     "ACCEPTED_HEADERS",
+    "ColumnOptions",
     "READERS",
     "atomic_write_bytes",
     "atomic_write_text",
@@ -25,6 +35,7 @@ __all__ = [
     "format_row",
     "load_signals",
     "read_imu_csv",
+    "read_imu_file",
     "read_imu_text",
     "read_sensor_folder",
     "register_reader",

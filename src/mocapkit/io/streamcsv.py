@@ -1,86 +1,105 @@
 """Line-by-line parsing of an IMU CSV stream (``mocapkit stream`` reads stdin with it).
 
-Accepts the comma-separated headers of :mod:`mocapkit.io.imucsv` (x-io, NGIMU, legacy x-io with a
-rate, generic ``time,w,x,y,z``) or, when the first line is numeric, headerless ``time,w,x,y,z``
-rows. Every problem raises :class:`~mocapkit.errors.MocapFormatError` with the line number, after
-the samples before it have been yielded (so a live consumer has already used them).
+The header is found exactly as for files (:mod:`mocapkit.io.imu_layout`: any layout with one sensor,
+the same overrides); the lines before the first data row are buffered, then every row is parsed and
+yielded at once. When the first line is numeric, the rows are headerless ``time,w,x,y,z`` (seconds).
+Counters become times with the first counter step (a file reader uses the most frequent step).
+Blank lines are skipped, and so are the frames in which an OptiTrack rigid body is lost (empty
+cells; the file reader counts them in ``meta["warnings"]``). Every problem raises
+:class:`~mocapkit.errors.MocapFormatError` with the line number, after the samples before it have
+been yielded (so a live consumer has already used them).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Iterator
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.imucsv import ACCEPTED_HEADERS, _identify
+from mocapkit.io.imu_columns import (
+    ColumnOptions,
+    Orientation,
+    TimeColumn,
+    is_metadata_line,
+    is_numeric_row,
+    sniff_delimiter,
+    split_fields,
+)
+from mocapkit.io.imu_layout import Layout, find_layout
+from mocapkit.io.imu_rows import RowReader
+
+__all__ = ["iter_samples"]
 
 
-def _is_numeric_row(fields: list[str]) -> bool:
-    try:
-        [float(f) for f in fields]
-    except ValueError:
-        return False
-    return True
+def _headerless(line: str, delim: str | None, source: str, lineno: int, rate: float | None,
+                opts: ColumnOptions) -> Layout:
+    n = len(split_fields(line, delim))
+    if n != 5:
+        raise MocapFormatError(source, lineno,
+                               f"a stream without a header must have rows time,w,x,y,z; got {n} columns")
+    if rate is not None or opts.any:
+        raise MocapFormatError(source, lineno, "headerless time,w,x,y,z rows have timestamps in seconds: "
+                               "do not give --rate or column options")
+    names = ["time", "w", "x", "y", "z"]
+    return Layout("generic", delim, names, lineno - 2, lineno - 1, TimeColumn(0, "time", "s"),
+                  [Orientation("quaternion", (1, 2, 3, 4), ("w", "x", "y", "z"))], None)
 
 
 def iter_samples(
-    lines: Iterable[str], source: str = "<stdin>", rate: float | None = None
+    lines: Iterable[str], source: str = "<stdin>", rate: float | None = None, *,
+    options: ColumnOptions | None = None, **columns,
 ) -> Iterator[tuple[int, float, tuple[float, float, float, float]]]:
-    """Yield ``(line_number, time_s, (w, x, y, z))`` for each data row of a CSV stream."""
-    time_kind = "s"
-    tcol, qcols = 0, (1, 2, 3, 4)
-    ncols = 5
-    first_counter = None
-    last_t = None
-    last_line = None
-    started = False
+    """Yield ``(line_number, time_s, (w, x, y, z))`` for each data row of a CSV stream.
+
+    ``columns``: ``time_column``, ``quaternion_columns``, ``scalar_last``, ``time_unit`` (or one
+    :class:`~mocapkit.io.imu_columns.ColumnOptions` as ``options``).
+    """
+    opts = options if options is not None else ColumnOptions(
+        **{k: v for k, v in columns.items() if v is not None and v is not False})
+    head: list[str] = []
+    reader: RowReader | None = None
+    seen_text = False
     for lineno, raw in enumerate(lines, start=1):
-        line = raw.strip().lstrip("\ufeff")
-        if not line:
-            continue
-        fields = [f.strip() for f in line.split(",")]
-        if not started:
-            started = True
-            if not _is_numeric_row(fields):
-                lay = _identify(line)
-                if lay is None or lay.delim != ",":
-                    raise MocapFormatError(
-                        source, lineno,
-                        f"unrecognised header {line[:80]!r}; expected one of: " + "; ".join(ACCEPTED_HEADERS[:3])
-                        + "; " + ACCEPTED_HEADERS[4] + " (or headerless time,w,x,y,z rows)",
-                    )
-                time_kind, tcol, qcols, ncols = lay.time_kind, lay.time_col, lay.quat_cols, len(lay.names)
-                if time_kind == "counter" and rate is None:
-                    raise MocapFormatError(source, lineno, "this format has no timestamps: give --rate HZ")
-                if time_kind != "counter" and rate is not None:
-                    raise MocapFormatError(source, lineno, "this format has timestamps: do not give --rate")
+        line = raw.rstrip("\r\n")
+        if lineno == 1:
+            line = line.lstrip("\ufeff")
+        if reader is None:
+            head.append(line)
+            if not line.strip():
                 continue
-        if len(fields) != ncols:
-            raise MocapFormatError(source, lineno, f"expected {ncols} columns, got {len(fields)}")
-        try:
-            nums = [float(f) for f in fields]
-        except ValueError:
-            bad = next(f for f in fields if not _is_numeric_row([f]))
-            raise MocapFormatError(source, lineno, f"{bad[:40]!r} is not a number") from None
-        if not all(math.isfinite(v) for v in nums):
-            raise MocapFormatError(source, lineno, "NaN or infinite value")
-        if time_kind == "us":
-            t = nums[tcol] / 1e6
-        elif time_kind == "counter":
-            if nums[tcol] < 0 or nums[tcol] != int(nums[tcol]):
-                raise MocapFormatError(source, lineno, f"packet number {fields[tcol]!r} is not a non-negative integer")
-            if first_counter is None:
-                first_counter = nums[tcol]
-            t = (nums[tcol] - first_counter) / rate
-        else:
-            t = nums[tcol]
-        q = (nums[qcols[0]], nums[qcols[1]], nums[qcols[2]], nums[qcols[3]])
-        if q == (0.0, 0.0, 0.0, 0.0):
-            raise MocapFormatError(source, lineno, "zero-norm quaternion")
-        if last_t is not None and t <= last_t:
-            what = "duplicate timestamp" if t == last_t else "timestamp goes backwards"
-            raise MocapFormatError(
-                source, lineno, f"{what}: time {t!r} is not after {last_t!r} on line {last_line}"
-            )
-        last_t, last_line = t, lineno
-        yield lineno, t, q
+            fields = split_fields(line, sniff_delimiter(line))
+            if is_metadata_line(fields, line) or not is_numeric_row(fields):
+                seen_text = True
+                continue
+            if not seen_text:
+                lay = _headerless(line, sniff_delimiter(line), source, lineno, rate, opts)
+            else:
+                lay = find_layout(head, len(head), source, rate, opts)
+            if len(lay.sensors) != 1:
+                raise MocapFormatError(source, lay.header_line, f"a stream carries one sensor; this header has "
+                                       f"{len(lay.sensors)} ({', '.join(str(s.sensor) for s in lay.sensors)})")
+            reader = RowReader(lay, source, online=True)
+            for k in range(lay.data_index, len(head)):
+                if head[k].strip():
+                    yield from _emit(reader, head[k], k + 1)
+            continue
+        if not line.strip():
+            continue
+        yield from _emit(reader, line, lineno)
+    if reader is None:
+        end = len(head)
+        while end > 0 and not head[end - 1].strip():
+            end -= 1
+        if end == 0:
+            raise MocapFormatError(source, 1, "empty input (expected a header line such as 'Timestamp (us),W,X,Y,Z')")
+        find_layout(head, end, source, rate, opts)  # raises: header only, or no header
+        raise MocapFormatError(source, end, "no data rows")  # pragma: no cover - find_layout raised
+
+
+def _emit(reader: RowReader, line: str, lineno: int):
+    out = reader.feed(line, lineno)
+    assert out is not None
+    t, qs = out
+    q = qs[0]
+    if q is None:       # an OptiTrack rigid body lost in this frame (empty cells): no sample
+        return
+    yield lineno, t, (float(q[0]), float(q[1]), float(q[2]), float(q[3]))

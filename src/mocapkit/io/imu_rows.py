@@ -1,0 +1,282 @@
+"""The data rows of an IMU export, parsed one line at a time into times and orientation values.
+
+Every problem raises :class:`~mocapkit.errors.MocapFormatError` with the 1-based line: wrong column
+count (trailing delimiters and empty extra cells are ignored), text, NaN or infinity in a used
+column, a zero quaternion, a duplicate or decreasing time. Counters and device clocks that wrap
+(uint16 ``PacketCounter``, uint32 ``SampleTimeFine``) are unwrapped when the next row continues from
+the wrapped value (serial-number arithmetic: a drop followed by a step of at most half the range).
+
+Counters become times with the sample rate ``r`` and the counter step ``s`` (the most frequent step
+between rows; in a stream, the first step): ``t = (counter − first) / (r · s)``. A step of 1 is the
+usual case; a legacy x-io file whose packet number counts every packet type steps by 3 for its
+quaternion rows. Any step other than 1 is recorded in ``meta["warnings"]``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+
+import numpy as np
+
+from mocapkit.errors import MocapFormatError
+from mocapkit.io.imu_columns import TIME_UNITS
+from mocapkit.io.imu_layout import Layout
+from mocapkit.io.imu_orientation import quaternions_from_euler, quaternions_from_matrices
+
+__all__ = ["RowReader"]
+
+_SEP_NAMES = {"\t": "tab", ",": "comma", ";": "semicolon", None: "whitespace"}
+
+
+def _short(text: str, limit: int = 80) -> str:
+    return repr(text if len(text) <= limit else text[:limit] + "...")
+
+
+class RowReader:
+    """Feed data lines with :meth:`feed`; :meth:`finish` returns times and per-sensor values.
+
+    With ``online=True`` (a stream) :meth:`feed` returns the row's time in seconds and its
+    quaternions at once.
+    """
+
+    def __init__(self, layout: Layout, src: str, online: bool = False):
+        self.lay = layout
+        self.src = src
+        self.online = online
+        self.ncols = len(layout.names)
+        self.tcol = layout.time.col
+        self.unit = layout.time.unit
+        self.tname = layout.time.name
+        self.wrap = layout.time.wrap
+        self.times: list[float] = []          # seconds (clock units)
+        self.counts: list[int] = []           # unwrapped integers (counters, wrapping clocks)
+        self.line_nos: list[int] = []
+        self.rows: list[list[int]] = [[] for _ in layout.sensors]
+        self.values: list[list[tuple[float, ...]]] = [[] for _ in layout.sensors]
+        self.dropped = [0] * len(layout.sensors)
+        self._prev_text = ""
+        self._prev_raw = 0
+        self._offset = 0
+        self._pending: tuple[int, int, int] | None = None
+        self._step: int | None = None
+
+    # -- fields -----------------------------------------------------------------------------------
+    def _fields(self, line: str, ln: int) -> list[str]:
+        d = self.lay.delim
+        if d is None:
+            fields = line.split()
+            ok = len(fields) == self.ncols
+        else:
+            fields = line.split(d)
+            ok = len(fields) >= self.ncols and not any(f.strip() for f in fields[self.ncols:])
+        if not ok:
+            shown = len(fields)
+            if d is not None:
+                while shown > self.ncols and not fields[shown - 1].strip():
+                    shown -= 1
+            raise MocapFormatError(
+                self.src, ln, f"expected {self.ncols} {_SEP_NAMES.get(d, repr(d))}-separated columns like the "
+                + (f"header on line {self.lay.header_line}" if self.lay.header_index >= 0 else "first row")
+                + f", got {shown}",
+            )
+        return fields
+
+    # -- time -------------------------------------------------------------------------------------
+    def _int(self, text: str, ln: int) -> int:
+        try:
+            return int(text)
+        except ValueError:
+            raise MocapFormatError(self.src, ln, f"column {self.tname}: {_short(text)} is not an integer") from None
+
+    def _count(self, c: int, ln: int) -> int:
+        if c < 0:
+            raise MocapFormatError(self.src, ln, f"column {self.tname}: {c} is negative")
+        if not self.counts:
+            return c
+        mod = self.wrap
+        u = c + self._offset
+        prev_u = self.counts[-1]
+        prev_raw = self._prev_raw
+        if self._pending is not None:
+            before_ln, before_raw, wrap_raw = self._pending
+            if not (prev_u < u <= prev_u + (mod or 0) // 2):
+                raise MocapFormatError(
+                    self.src, ln, f"{self.tname} drops from {before_raw} (line {before_ln}) to {wrap_raw} "
+                    f"(line {self.line_nos[-1]}) but line {ln} ({c}) does not continue from {wrap_raw}: "
+                    "not a wrap-around",
+                )
+            self._pending = None
+        if u == prev_u:
+            raise MocapFormatError(self.src, ln, f"duplicate {self.tname} {c} on lines {self.line_nos[-1]} and {ln}")
+        if u < prev_u:
+            step = c + (mod or 0) - prev_raw
+            if mod and c < mod and prev_raw < mod and 1 <= step <= mod // 2:
+                self._offset = prev_u - prev_raw + mod
+                u = c + self._offset
+                self._pending = (self.line_nos[-1], prev_raw, c)
+            else:
+                raise MocapFormatError(
+                    self.src, ln, f"{self.tname} must increase: line {ln} has {c}, less than {prev_raw} on line "
+                    f"{self.line_nos[-1]}" + (f" (not a wrap-around of a {mod}-value counter)" if mod else ""),
+                )
+        return u
+
+    def _clock(self, text: str, ln: int) -> float:
+        unit = self.unit
+        try:
+            if unit == "s":
+                t = float(text)
+            else:
+                try:
+                    raw: float | int = int(text)
+                except ValueError:
+                    raw = float(text)
+                t = raw / TIME_UNITS[unit]  # type: ignore[index]
+        except ValueError:
+            raise MocapFormatError(self.src, ln, f"column {self.tname}: {_short(text)} is not a number") from None
+        except OverflowError:
+            raise MocapFormatError(self.src, ln, f"column {self.tname}: {_short(text)} is out of range") from None
+        if math.isnan(t):
+            raise MocapFormatError(self.src, ln, f"column {self.tname} is NaN")
+        if math.isinf(t):
+            raise MocapFormatError(self.src, ln, f"column {self.tname} is infinite ({_short(text)})")
+        if self.times:
+            prev = self.times[-1]
+            if t == prev:
+                raise MocapFormatError(
+                    self.src, ln, f"duplicate timestamp: line {ln} has {self.tname} {_short(text)} ({t!r} s), "
+                    f"the same time as line {self.line_nos[-1]} ({_short(self._prev_text)})",
+                )
+            if t < prev:
+                raise MocapFormatError(
+                    self.src, ln, f"timestamps must increase: line {ln} has {self.tname} {_short(text)} ({t!r} s), "
+                    f"earlier than line {self.line_nos[-1]} with {_short(self._prev_text)} ({prev!r} s)",
+                )
+        self._prev_text = text
+        return t
+
+    def _time(self, fields: list[str], ln: int) -> None:
+        if self.tcol is None:
+            return
+        text = fields[self.tcol].strip().strip('"')
+        if self.unit == "counter" or self.wrap is not None:
+            c = self._count(self._int(text, ln), ln)
+            self.counts.append(c)
+            self._prev_raw = int(text)
+            if self.unit != "counter":
+                t = c / TIME_UNITS[self.unit]  # type: ignore[index]
+                self.times.append(t)
+        else:
+            self.times.append(self._clock(text, ln))
+
+    # -- values -----------------------------------------------------------------------------------
+    def _values(self, fields: list[str], ln: int, k: int) -> tuple[float, ...] | None:
+        o = self.lay.sensors[k]
+        texts = [fields[c].strip().strip('"') for c in o.cols]
+        if o.missing_rows == "drop" and any(not t for t in texts):
+            return None
+        out = []
+        for text, name in zip(texts, o.names):
+            try:
+                v = float(text)
+            except ValueError:
+                raise MocapFormatError(self.src, ln, f"column {name}: {_short(text)} is not a number") from None
+            if v != v:
+                raise MocapFormatError(self.src, ln, f"column {name} is NaN")
+            if v in (math.inf, -math.inf):
+                raise MocapFormatError(self.src, ln, f"column {name} is infinite ({_short(text)})")
+            out.append(v)
+        if o.kind == "quaternion" and all(v * v == 0.0 for v in out):
+            raise MocapFormatError(
+                self.src, ln, f"zero-norm quaternion ({', '.join(o.names)} = {', '.join(repr(v) for v in out)})"
+            )
+        return tuple(out)
+
+    def feed(self, line: str, ln: int) -> tuple[float, list[tuple[float, ...] | None]] | None:
+        """Parse one data line (``ln`` 1-based). Online: return ``(time_s, per-sensor w,x,y,z or None)``."""
+        if not line.strip():
+            raise MocapFormatError(self.src, ln, "empty line inside the data (only trailing empty lines are allowed)")
+        fields = self._fields(line, ln)
+        vals = [self._values(fields, ln, k) for k in range(len(self.lay.sensors))]
+        self._time(fields, ln)
+        idx = len(self.line_nos)
+        self.line_nos.append(ln)
+        for k, v in enumerate(vals):
+            if v is None:
+                self.dropped[k] += 1
+            elif not self.online:
+                self.rows[k].append(idx)
+                self.values[k].append(v)
+        if not self.online:
+            return None
+        return self._online_time(idx, ln), [None if v is None else self._convert(k, [v], [ln])[0][0]
+                                            for k, v in enumerate(vals)]
+
+    def _online_time(self, idx: int, ln: int) -> float:
+        if self.unit not in ("counter", None):
+            return self.times[-1]
+        rate = self.lay.rate
+        if self.unit is None:
+            return idx / rate  # type: ignore[operator]
+        if self._step is None and len(self.counts) >= 2:
+            self._step = self.counts[1] - self.counts[0]
+        t = (self.counts[-1] - self.counts[0]) / (rate * (self._step or 1))  # type: ignore[operator]
+        if idx and not (t > self._last_online):
+            raise MocapFormatError(self.src, ln, f"time {t!r} s from {self.tname} is not after the previous row")
+        self._last_online = t
+        return t
+
+    _last_online = -math.inf
+
+    # -- results ----------------------------------------------------------------------------------
+    def _convert(self, k: int, values, line_nos) -> tuple[np.ndarray, str | None]:
+        o = self.lay.sensors[k]
+        arr = np.array(values, dtype=np.float64).reshape(len(values), len(o.cols))
+        if o.kind == "matrix":
+            return quaternions_from_matrices(arr, self.src, line_nos, o.names)
+        if o.kind == "euler":
+            return quaternions_from_euler(arr, o.degrees, o.names)
+        return arr, None
+
+    def finish(self) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray, str | None]], list[str]]:
+        """``(times of all rows, [(row indices, (M, 4) w,x,y,z, conversion) per sensor], warnings)``."""
+        if not self.line_nos:
+            raise MocapFormatError(self.src, self.lay.header_line, "header only: no data rows after the header")
+        warnings: list[str] = []
+        n = len(self.line_nos)
+        rate = self.lay.rate
+        if self.unit in ("counter", None):
+            if self.unit is None:
+                times = [i / rate for i in range(n)]  # type: ignore[operator]
+            else:
+                step = 1
+                if n > 1:
+                    tally = Counter(b - a for a, b in zip(self.counts, self.counts[1:]))
+                    step = min(tally, key=lambda s: (-tally[s], s))
+                if step != 1:
+                    warnings.append(
+                        f"{self.tname} steps by {step} between rows: read as one sample every {step} counts at "
+                        f"{rate:g} Hz (t = (counter - first) / ({rate:g} * {step}))"
+                    )
+                first = self.counts[0]
+                try:
+                    times = [(u - first) / (rate * step) for u in self.counts]  # type: ignore[operator]
+                except OverflowError:
+                    raise MocapFormatError(self.src, None, f"{self.tname} values are too large") from None
+            for i in range(1, n):
+                if not (times[i] > times[i - 1]) or not math.isfinite(times[i]):
+                    raise MocapFormatError(
+                        self.src, self.line_nos[i], f"time {times[i]!r} s (from the sample rate {rate:g} Hz) is "
+                        f"not after {times[i - 1]!r} s on line {self.line_nos[i - 1]}",
+                    )
+        else:
+            times = self.times
+        out = []
+        for k, o in enumerate(self.lay.sensors):
+            if not self.rows[k]:
+                raise MocapFormatError(self.src, None, f"{o.sensor or 'the orientation'} has no complete row "
+                                       f"(columns {', '.join(o.names)})")
+            q, how = self._convert(k, self.values[k], [self.line_nos[i] for i in self.rows[k]])
+            out.append((np.array(self.rows[k], dtype=np.intp), q, how))
+        return np.array(times, dtype=np.float64), out, warnings
