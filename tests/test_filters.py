@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 
 from mocapkit.errors import InvalidParameterError
-from mocapkit.filters.api import auto_penalty, fit, split_at_gaps
+from mocapkit.filters.additive import solve_additive
+from mocapkit.filters.api import fit, split_at_gaps
 from mocapkit.filters.chunks import build, chunk_ssr, fit_piece
 from mocapkit.filters.exact import solve_exact, ssr_curve
 from mocapkit.filters.ppa import fit_iterative
-from mocapkit.evaluation.filtering import evaluate_synthetic, flights, knot_f1, synthetic_signal
+from mocapkit.evaluation.filtering import evaluate_synthetic, knot_f1, synthetic_signal
 
 
 def brute_force(t, Y, order, K):
@@ -162,11 +163,107 @@ def test_knot_f1():
     assert knot_f1(np.array([10, 11]), np.array([10])) == pytest.approx(2 / 3)
 
 
-def test_auto_penalty_scales_with_noise():
-    t, y, _, _ = synthetic_signal(n=600, noise=0.1, seed=0)
-    t2, y2, _, _ = synthetic_signal(n=600, noise=0.2, seed=0)
-    k1, k2 = auto_penalty(y, 2), auto_penalty(y2, 2)
-    assert 1.6 < k2 / k1 < 2.4
+def ar1(rng, n, rho, sd):
+    """AR(1) noise of marginal standard deviation ``sd``."""
+    e = rng.normal(0.0, sd * np.sqrt(1 - rho**2), n)
+    x = np.empty(n)
+    x[0] = rng.normal(0.0, sd)
+    for i in range(1, n):
+        x[i] = rho * x[i - 1] + e[i]
+    return x
+
+
+def juggle(cycles, rate=200.0, rho=0.8, sd=0.3, seed=0):
+    """A juggled ball's height (mm): flights under g (0.6 s) and holds (0.3 s, +2v0/th), continuous in
+    position (the knots are breaks of velocity and acceleration only), plus AR(1) noise."""
+    tf, th = 0.6, 0.3
+    v0 = 9810.0 * tf / 2
+    ah = 2 * v0 / th
+    nf, nh = int(round(tf * rate)), int(round(th * rate))
+    ys, true = [], []
+    for _ in range(cycles):
+        tt = np.arange(nf) / rate
+        ys.append(v0 * tt - 4905.0 * tt**2)
+        true.append(sum(map(len, ys)))
+        tt = np.arange(nh) / rate
+        ys.append(-v0 * tt + ah / 2 * tt**2)
+        true.append(sum(map(len, ys)))
+    y = np.concatenate(ys)
+    rng = np.random.default_rng(seed)
+    e = np.empty(y.size)
+    x = 0.0
+    for i in range(y.size):
+        x = rho * x + rng.normal(0, sd)
+        e[i] = x
+    return np.arange(y.size) / rate, y + e, np.array(true[:-1])
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_additive_solver_equals_brute_force(seed):
+    rng = np.random.default_rng(900 + seed)
+    n = int(rng.integers(5, 13))
+    order = int(rng.integers(0, 3))
+    D = int(rng.integers(1, 3))
+    t, Y = random_piecewise(rng, n, D)
+    if seed % 3 == 0:
+        Y[rng.choice(n, 2, replace=False)] = np.nan
+    lam = float(rng.uniform(0.01, 5.0))
+    valid = ~np.isnan(Y).any(axis=1)
+    best = np.inf
+    for k in range(n):
+        for ks in itertools.combinations(range(1, n), k):
+            kn = [0, *ks, n]
+            if any(valid[a:b].sum() < order + 1 for a, b in zip(kn[:-1], kn[1:])):
+                continue
+            best = min(best, build(t, Y, kn, order, 0.0).ssr + lam * k)
+    r = solve_additive(t, Y, order, lam)
+    assert r.ssr + lam * r.n_knots == pytest.approx(best, rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_auto_recovers_known_knots_white_and_correlated_noise(seed):
+    """Figure 2 signal with the report's uniform white noise and with AR(1) noise (ρ = 0.9): the
+    automatic cost finds exactly the 3 true knots."""
+    t, y, clean, true = synthetic_signal(n=600, noise=0.1, seed=seed)
+    r = fit(t, y, 2)
+    assert r.solver == "auto" and r.iterative_loss is None and r.knot_cost > 0
+    assert r.n_knots == 3 and knot_f1(r.parts[0].knots[1:-1], true) == 1.0
+    y2 = clean + ar1(np.random.default_rng(seed), 600, 0.9, 0.05)
+    r2 = fit(t, y2, 2)
+    assert r2.n_knots == 3 and knot_f1(r2.parts[0].knots[1:-1], true, margin=3) == 1.0
+    # the old white-noise price of a knot (sigma-hat from 3rd differences) over-segments correlated noise
+    from mocapkit.filters.penalty import noise_sigma
+
+    K_white = noise_sigma(y2, 2) * (3 + 2 * np.log(600)) / np.sqrt(600)
+    assert fit(t, y2, 2, K_white).n_knots > 10
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_auto_no_knot_on_noise_or_constant(seed):
+    rng = np.random.default_rng(seed)
+    t = np.arange(2000) / 100.0
+    assert fit(t, rng.normal(0, 1, 2000), 2).n_knots == 0
+    assert fit(t, 5 + ar1(rng, 2000, 0.9, 1.0), 2).n_knots == 0
+    assert fit(t[:300], np.full(300, 3.25), 2).n_knots == 0
+    assert fit(t, np.c_[rng.normal(0, 1e-3, 2000), rng.normal(7, 1e-3, 2000)], 1).n_knots == 0
+
+
+def test_auto_cost_does_not_grow_with_length():
+    """The same juggling pattern over 6 and 12 cycles: the same knot cost λ, twice the knots, every
+    true knot found; Eq. 2's equivalent K shrinks as 1/sqrt(n), which is why λ is used."""
+    t1, y1, true1 = juggle(6)
+    t2, y2, true2 = juggle(12)
+    r1, r2 = fit(t1, y1, 2), fit(t2, y2, 2)
+    assert r1.n_knots == len(true1) and r2.n_knots == len(true2)
+    assert knot_f1(r1.parts[0].knots[1:-1], true1, margin=4) == 1.0
+    assert knot_f1(r2.parts[0].knots[1:-1], true2, margin=4) == 1.0
+    assert 0.8 < r2.knot_cost / r1.knot_cost < 1.25
+    assert r2.penalty / r1.penalty == pytest.approx(np.sqrt(len(t1) / len(t2)), rel=0.1)
+    acc = [2 * p.coeffs[2, 0] for p in r2.pieces[::2]]  # the flights
+    assert np.median(acc) == pytest.approx(-9810.0, rel=0.01)
+    # scale-free: the same signal in metres gets the same knots
+    r3 = fit(t1, y1 * 1e-3, 2)
+    assert np.array_equal(r3.parts[0].knots, r1.parts[0].knots)
 
 
 def test_bad_parameters():
@@ -180,6 +277,7 @@ def test_bad_parameters():
 
 
 def test_juggling_flights_fall_at_g(shared_data):
+    """The report's K = 100 mm on the full take still works."""
     from mocapkit.evaluation.filtering import evaluate_juggling
     from mocapkit.markers import load_markers
 
@@ -190,6 +288,69 @@ def test_juggling_flights_fall_at_g(shared_data):
     for rec in out["balls"].values():
         # the Butterworth-derived acceleration is not flat during the same flights
         assert np.median(rec["butterworth_flight_acc_std"]) > 0.5
+
+
+def test_cli_filter_auto_on_juggling_take(shared_data):
+    """``filter --auto`` on the full shared take (4,967 frames at 300 Hz): the five balls' flights fall
+    within 5 % of g, the five base markers get no knot. ~1 min on one core."""
+    from mocapkit.evaluation.filtering import flights, moving_markers
+    from mocapkit.markers import load_markers
+
+    tsv = shared_data / "juggling" / "5-ball-juggling-qualisys-300hz.tsv"
+    m = load_markers(tsv)
+    moving, static = moving_markers(m)
+    assert static == ["base_1", "base_2", "base_3", "base_4", "base_5"]
+    assert set(moving) == {"unnamed_6", "unnamed_8", "unnamed_10", "unnamed_16", "unnamed_17"}
+    sel = ",".join([f"{b}:z" for b in moving] + static)
+    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "filter", str(tsv), "--markers", sel, "--auto", "--json"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    recs = {rec["name"]: rec for rec in json.loads(r.stdout)}
+    for b in static:
+        assert recs[b]["n_knots"] == 0, recs[b]
+    acc = []
+    for b in moving:
+        # flights as in evaluation.filtering.flights: concave pieces of at least 0.2 s
+        acc += [2 * p["coeffs"][2] * 1e-3 for p in recs[f"{b}:z"]["pieces"] if p["coeffs"][2] < 0 and p["t1"] - p["t0"] >= 0.2]
+        assert recs[f"{b}:z"]["knot_cost"] > 0
+    res = fit(m.times, m.positions[:, m.labels.index("unnamed_6"), 2], 2)  # the library gives the same
+    assert res.n_knots == recs["unnamed_6:z"]["n_knots"] and len(flights(res)) >= 10
+    assert len(acc) >= 50
+    assert abs(np.median(acc) + 9.81) < 0.05 * 9.81
+
+
+def test_filter_eval_other_marker_names(tests_data, tmp_path):
+    """``filter-eval --juggling`` on a TSV whose markers have other names (the tests/data excerpt
+    relabelled): moving markers detected by the rule, or named with --balls; clear errors."""
+    src = (tests_data / "markers" / "juggling-qualisys-300hz-first120.tsv").read_text()
+    lines = src.splitlines()
+    i = next(k for k, ln in enumerate(lines) if ln.startswith("MARKER_NAMES"))
+    names = lines[i].split("\t")[1:]
+    lines[i] = "\t".join(["MARKER_NAMES"] + [n.replace("base_", "Table") for n in names])
+    hdr = next(k for k, ln in enumerate(lines) if ln.startswith("Frame\t"))
+    lines[hdr] = lines[hdr].replace("base_", "Table")
+    tsv = tmp_path / "other.tsv"
+    tsv.write_text("\n".join(lines) + "\n")
+    from mocapkit.markers import load_markers
+
+    labels = load_markers(tsv).labels
+    assert "Table1" in labels and not any(lab.startswith("base") for lab in labels)
+    run = [sys.executable, "-m", "mocapkit.cli", "filter-eval", "--juggling", str(tsv), "--sizes", ""]
+    r = subprocess.run(run + ["--out", str(tmp_path / "a")], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    jug = json.loads((tmp_path / "a" / "juggling.json").read_text())
+    assert set(jug["controls"]) == {f"Table{k}" for k in range(1, 6)}
+    assert all(c["knots"] == 0 for c in jug["controls"].values())
+    assert jug["balls"] and not any(b.startswith("Table") for b in jug["balls"])
+    ball = next(iter(jug["balls"]))
+    r = subprocess.run(run + ["--out", str(tmp_path / "b"), "--balls", ball, "--controls", "Table2"],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    jug = json.loads((tmp_path / "b" / "juggling.json").read_text())
+    assert list(jug["balls"]) == [ball] and list(jug["controls"]) == ["Table2"]
+    r = subprocess.run(run + ["--out", str(tmp_path / "c"), "--balls", "unnamed_6,Ball9"], capture_output=True, text=True)
+    assert r.returncode == 2 and "'Ball9'" in r.stderr and "Traceback" not in r.stderr
+    assert not (tmp_path / "c").exists()  # checked before any work
 
 
 def test_cli_filter_json_and_csv(tests_data, tmp_path):

@@ -149,3 +149,69 @@ def test_read_reference_detects_the_format(tmp_path):
     assert ref.cuts.tolist() == [48]
     ref = _read_reference(m6, 24, 30.0)  # at 30 Hz a 10 Hz label covers 3 frames
     assert ref.cuts.tolist() == [12]
+
+
+def _block_labels(path: Path, n_labels: int) -> Path:
+    """Per-frame block labels (mocap6 layout): action 1 for the first half, 2 after."""
+    ids = [1] * (n_labels // 2) + [2] * (n_labels - n_labels // 2)
+    path.write_text("\n".join(" ".join(map(str, ids[i:i + 10])) for i in range(0, n_labels, 10)) + "\n")
+    return path
+
+
+def test_segment_labels_off_by_one_block_warn(excerpt, tmp_path):
+    """200 frames at 15 Hz: 10 Hz labels of 2 frames, 100 expected; 101 or 99 warn, 98 is an error."""
+    amc, asf, _ = excerpt
+    for n_labels, word in ((101, "ignored"), (99, "also covers")):
+        lab = _block_labels(tmp_path / f"l{n_labels}.txt", n_labels)
+        r = run("segment", amc, "--asf", asf, "--rate", 15, "--json", "--labels", lab)
+        assert r.returncode == 0, r.stderr
+        assert "warning:" in r.stderr and word in r.stderr and lab.name in r.stderr
+        assert json.loads(r.stdout)["reference_cuts"] == [100] if n_labels == 101 else [98]
+    r = run("segment", amc, "--asf", asf, "--rate", 15, "--labels", _block_labels(tmp_path / "l98.txt", 98))
+    assert r.returncode == 2 and "l98.txt" in r.stderr and "expected 100 labels" in r.stderr
+
+
+def test_labels_checked_before_segmenting(excerpt, tmp_path, monkeypatch):
+    """A bad label file fails before any segmenter runs (segment and segment-bench)."""
+    from typer.testing import CliRunner
+
+    from mocapkit.cli import app
+    from mocapkit.errors import MocapFormatError
+    from mocapkit.segment import arma
+
+    def boom(self, X):
+        raise AssertionError("segmenting started before the labels were checked")
+
+    monkeypatch.setattr(arma.ARMASegmenter, "fit", boom)
+    amc, asf, labels = excerpt
+    bad = tmp_path / "bad.labels.txt"
+    bad.write_text("86 01\nwalk 10 30 30\nrest 150 150 150\n")  # ends at 150 but the take has 200 frames
+    res = CliRunner().invoke(app, ["segment", str(amc), "--asf", str(asf), "--rate", "15", "--labels", str(bad)])
+    assert isinstance(res.exception, MocapFormatError) and "bad.labels.txt:3" in str(res.exception)
+    res = CliRunner().invoke(app, ["segment-bench", f"{amc}={labels}", f"{amc}={bad}", "--asf", str(asf), "--rate", "15",
+                                   "--methods", "arma"])
+    assert isinstance(res.exception, MocapFormatError) and "bad.labels.txt:3" in str(res.exception)
+
+
+def test_segment_bench_on_user_takes(excerpt, tmp_path):
+    """segment-bench on the user's labelled takes: TAKE=LABELS pairs and a folder of pairs."""
+    import shutil
+
+    amc, asf, labels = excerpt
+    folder = tmp_path / "takes"
+    folder.mkdir()
+    for name in ("a", "b"):
+        shutil.copy(amc, folder / f"{name}.amc")
+        shutil.copy(labels, folder / f"{name}.labels.txt")
+    shutil.copy(asf, folder / "86.asf")
+    r = run("segment-bench", f"{amc}={labels}", "--asf", asf, "--rate", 15, "--methods", "arma,kmeans", "--json")
+    assert r.returncode == 0, r.stderr
+    rec = json.loads(r.stdout)
+    assert {(row["take"], row["method"]) for row in rec["cmu"]} == {(amc.stem, "arma"), (amc.stem, "kmeans")}
+    assert rec["tssb"] == [] and all(row["ref_cuts"] == [69, 144] for row in rec["cmu"])
+    r = run("segment-bench", folder, "--asf", asf, "--rate", 15, "--methods", "arma,mlp", "--json")
+    assert r.returncode == 0, r.stderr
+    rows = json.loads(r.stdout)["cmu"]
+    assert sorted({row["take"] for row in rows}) == ["a", "b"] and {row["method"] for row in rows} == {"arma", "mlp"}
+    r = run("segment-bench", tmp_path / "nowhere", "--methods", "arma")
+    assert r.returncode == 2 and "nowhere" in r.stderr and "TAKE=LABELS" in r.stderr

@@ -405,7 +405,7 @@ def test_frame_labels_good_file(tmp_path: Path) -> None:
 
 def test_frame_labels_wrong_count(tmp_path: Path) -> None:
     path = _write(tmp_path, "1 1\n2\n")
-    for n in (24, 37):  # ceil(24/12) = 2 and ceil(37/12) = 4 labels expected, 3 found
+    for n in (12, 49):  # ceil(12/12) = 1 and ceil(49/12) = 5 labels expected, 3 found: an error
         with pytest.raises(MocapFormatError) as info:
             read_frame_labels(path, n)
         assert info.value.line is None
@@ -413,6 +413,17 @@ def test_frame_labels_wrong_count(tmp_path: Path) -> None:
         assert f"expected {expected} labels" in str(info.value)
         assert "found 3" in str(info.value)
         assert str(info.value).startswith(str(path))
+
+
+def test_frame_labels_one_block_more_or_less_is_a_warning(tmp_path: Path) -> None:
+    path = _write(tmp_path, "1 1\n2\n")
+    ref = read_frame_labels(path, 24)  # 2 labels expected, 3 found: the last is ignored
+    assert len(ref.warnings) == 1 and "the last label is ignored" in ref.warnings[0] and str(path) in ref.warnings[0]
+    assert ref.cuts.size == 0 and ref.n_frames == 24
+    ref = read_frame_labels(path, 37)  # 4 expected, 3 found: the last label covers frames 36..36
+    assert len(ref.warnings) == 1 and "last 1 frames" in ref.warnings[0]
+    assert ref.cuts.tolist() == [24] and ref.n_frames == 37 and ref.frame_labels()[-1] == 1
+    assert read_frame_labels(path, 36).warnings == ()  # exact: no warning
 
 
 def test_frame_labels_bad_token(tmp_path: Path) -> None:

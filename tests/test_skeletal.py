@@ -71,7 +71,7 @@ def test_fk_matches_naive_on_excerpts(tests_data):
 
 
 def test_fk_matches_naive_on_shared_files(shared_bvh):
-    assert len(shared_bvh) == 2
+    assert len(shared_bvh) >= 2
     for f in shared_bvh:
         m = read_bvh(f)
         sub = type(m)(m.skeleton, m.times[::25], m.rotations[::25], m.translations[::25], m.channel_values[::25])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import sys
@@ -22,7 +23,56 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
     help="Compress, filter and segment human-motion recordings.",
 )
-err = Console(stderr=True)
+
+
+def _console(stderr: bool = False) -> Console:
+    """A rich console; when it is not a terminal (piped, redirected) lines are never cut at 80 columns."""
+    c = Console(stderr=stderr)
+    return c if c.is_terminal else Console(stderr=stderr, width=100_000)
+
+
+err = _console(stderr=True)  # diagnostics and progress
+console = _console()  # results (stdout)
+
+
+def _version(value: bool) -> None:
+    if value:
+        from mocapkit import __version__
+
+        print(f"mocapkit {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _main_options(
+    version: Annotated[
+        bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")
+    ] = False,
+) -> None:
+    """Compress, filter and segment human-motion recordings."""
+
+
+@contextlib.contextmanager
+def _progress(what: str, total: int | None = None):
+    """A progress display on stderr (a bar with ETA when ``total`` is known, else a spinner with the
+    elapsed time); yields ``update(done, total)``. Nothing is drawn when stderr is not a terminal."""
+    from rich.progress import (
+        BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
+    )
+
+    if not err.is_terminal:  # a log file gets no spinner frames
+        yield lambda done, n=None: None
+        return
+    cols = [SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+            TimeElapsedColumn(), TimeRemainingColumn()] if total else [
+            SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn()]
+    with Progress(*cols, console=err, transient=True) as prog:
+        task = prog.add_task(what, total=total)
+
+        def update(done: int, n: int | None = None) -> None:
+            prog.update(task, completed=done, total=n if n is not None else total)
+
+        yield update
 
 
 class Method(str, Enum):
@@ -38,6 +88,25 @@ RateOpt = Annotated[
     Optional[float],
     typer.Option("--rate", help="Sample rate in Hz, for files without timestamps (legacy x-io, Xsens)."),
 ]
+TimeColumnOpt = Annotated[
+    Optional[str], typer.Option("--time-column", help="IMU files: the name of the time column, when the guess is wrong.")
+]
+QuatColumnsOpt = Annotated[
+    Optional[str],
+    typer.Option("--quaternion-columns", help="IMU files: the four quaternion column names in w,x,y,z order, e.g. 'W,X,Y,Z'."),
+]
+ScalarLastOpt = Annotated[
+    bool, typer.Option("--scalar-last", help="IMU files: numbered quaternion columns (q0..q3, Element 1..4) hold x,y,z,w.")
+]
+TimeUnitOpt = Annotated[
+    Optional[str], typer.Option("--time-unit", help="IMU files: unit of the time column: s, ms, us, ns, or counter (with --rate).")
+]
+
+
+def _columns(time_column, quaternion_columns, scalar_last, time_unit) -> dict:
+    """The IMU header overrides as keyword arguments of load_signals / iter_samples."""
+    return {"time_column": time_column, "quaternion_columns": quaternion_columns, "scalar_last": scalar_last,
+            "time_unit": time_unit}
 MethodOpt = Annotated[Method, typer.Option("--method", "-m", help="PLA method.")]
 ThresholdOpt = Annotated[
     Optional[float],
@@ -55,6 +124,29 @@ MaxLenOpt = Annotated[
     Optional[int],
     typer.Option("--max-segment-length", help="At most N sample intervals between segment points."),
 ]
+
+
+def _check_output(path: Optional[Path], folder: bool = False) -> None:
+    """Refuse an output path that cannot be written before any work is done (named as given)."""
+    import os
+
+    if path is None:
+        return
+    if folder:
+        if path.exists() and not path.is_dir():
+            raise InvalidParameterError(f"{path}: expected a folder for the outputs")
+        parent = path if path.exists() else path.parent
+    else:
+        if path.is_dir():
+            raise InvalidParameterError(f"{path}: is a folder; give a file name")
+        parent = path.parent
+    parent = parent if str(parent) else Path(".")
+    while folder and not parent.exists() and parent != parent.parent:
+        parent = parent.parent  # a new output folder is created: its nearest existing ancestor must be writable
+    if not parent.is_dir():
+        raise InvalidParameterError(f"{path}: the folder {parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise InvalidParameterError(f"{path}: the folder {parent} is not writable")
 
 
 def _one_control(threshold, target_icr, max_angle) -> None:
@@ -109,6 +201,10 @@ def compress(
     max_angle: MaxAngleOpt = None,
     max_segment_length: MaxLenOpt = None,
     rate: RateOpt = None,
+    time_column: TimeColumnOpt = None,
+    quaternion_columns: QuatColumnsOpt = None,
+    scalar_last: ScalarLastOpt = False,
+    time_unit: TimeUnitOpt = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object per signal (a list).")] = False,
     asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
     max_position_error: Annotated[
@@ -119,15 +215,26 @@ def compress(
         Optional[float], typer.Option("--unit-cm", help="Skeletal input: centimetres per file length unit.")
     ] = None,
     strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: Frames: mismatch is an error (default) or is recorded.")] = True,
+    stats_only: Annotated[
+        bool, typer.Option("--stats-only", help="Only measure (print the table); write no points or clip.")
+    ] = False,
 ) -> None:
     """Compress orientation streams (IMU files, sensor folders) or whole skeletons (BVH, AMC).
 
-    IMU input: segment points as CSV time,w,x,y,z. Skeletal input: keyframes as glTF (.glb/.gltf) or
-    the decoded full-rate motion as .bvh.
+    IMU input: segment points as CSV time,w,x,y,z (to -o, or to stdout for one file). Skeletal input:
+    keyframes as glTF (.glb/.gltf) or the decoded full-rate motion as .bvh (-o). Without -o, a result
+    that cannot go to stdout is refused before any work unless --json or --stats-only asks for the numbers.
     """
     from mocapkit.io.loaders import kind_of
 
+    if stats_only and output is not None:
+        raise InvalidParameterError("--stats-only writes nothing: drop it or drop --output")
+    _check_output(output, folder=input.is_dir())
     if kind_of(input) == "skeletal":
+        if output is None and not (as_json or stats_only):
+            raise InvalidParameterError(
+                f"{input}: give -o OUT.glb|OUT.gltf|OUT.bvh to keep the compressed clip "
+                "(or --json / --stats-only to print only the numbers)")
         _compress_skeletal(input, output, method, threshold, target_icr, max_position_error, max_angle,
                            max_segment_length, rate, as_json, asf, unit_cm, strict)
         return
@@ -137,21 +244,32 @@ def compress(
     from mocapkit.pla import compress_to, evaluate
 
     _one_control(threshold, target_icr, max_angle)
-    signals = load_signals(input, rate=rate)
-    folder_mode = input.is_dir()
+    signals = load_signals(input, rate=rate, **_columns(time_column, quaternion_columns, scalar_last, time_unit))
+    folder_mode = input.is_dir() or len(signals) > 1  # one CSV per sensor
+    what = "a folder" if input.is_dir() else f"a file of {len(signals)} sensors"
     if folder_mode and output is not None and output.exists() and not output.is_dir():
-        raise InvalidParameterError(f"{output}: INPUT is a folder, so --output must be a folder")
+        raise InvalidParameterError(f"{output}: INPUT is {what}, so --output must be a folder")
+    if folder_mode and output is None and not (as_json or stats_only):
+        raise InvalidParameterError(
+            f"{input} is {what}: give -o FOLDER to keep the segment points (one CSV per sensor), "
+            "or --json / --stats-only to print only the numbers")
+    points_to_stdout = output is None and not folder_mode and not as_json and not stats_only
     mode, target = (
         ("threshold", threshold) if threshold is not None
         else ("target_icr", target_icr) if target_icr is not None
         else ("max_angle", max_angle)
     )
     records = []
+    with _progress(f"compressing {input.name}", total=len(signals)) as update:
+        comps = {}
+        for i, (name, sig) in enumerate(signals.items()):
+            comps[name] = compress_to(
+                sig, method.value, threshold=threshold, target_icr=target_icr, max_angle=max_angle,
+                max_segment_length=max_segment_length,
+            )
+            update(i + 1)
     for name, sig in signals.items():
-        comp = compress_to(
-            sig, method.value, threshold=threshold, target_icr=target_icr, max_angle=max_angle,
-            max_segment_length=max_segment_length,
-        )
+        comp = comps[name]
         met = evaluate(sig, comp)
         records.append(_record(name, sig.source, comp, met, mode, target))
         if output is not None:
@@ -159,16 +277,14 @@ def compress(
             if folder_mode:
                 output.mkdir(parents=True, exist_ok=True)
             write_signal_csv(dest, comp.times, comp.values)
-        elif not folder_mode and not as_json:
+        elif points_to_stdout:
             sys.stdout.write("time,w,x,y,z\n")
             for t, v in zip(comp.times.tolist(), comp.values.tolist()):
                 sys.stdout.write(",".join(repr(x) for x in (t, *v)) + "\n")
     if as_json:
         print(json.dumps(records, indent=1))
-    else:
-        err.print(_summary_table(records, f"{method.value}: {mode} {target:g}"))
-    if folder_mode and output is None:
-        err.print("no --output folder given: the segment points were not written")
+    else:  # the table is the result unless the points went to stdout
+        (err if points_to_stdout else console).print(_summary_table(records, f"{method.value}: {mode} {target:g}"))
     skipped = sorted({f for s in signals.values() for f in s.meta.get("skipped_files", [])})
     if skipped:
         err.print(f"not orientation data, skipped: {', '.join(skipped)}")
@@ -190,12 +306,14 @@ def _compress_skeletal(input, output, method, threshold, target_icr, max_positio
     motion = load_motion(input, asf=asf, rate=rate, strict=strict)
     ucm, assumed = find_unit(motion, unit_cm)
     bound = None if max_position_error is None else max_position_error / ucm
-    comp = compress_motion(
-        motion, method.value, threshold=threshold, target_icr=target_icr, max_position_error=bound,
-        max_segment_length=max_segment_length,
-    )
-    if bound is not None:
-        verify_position_bound(motion, comp, bound)
+    steps = None if threshold is not None else 41 if target_icr is not None else 15
+    with _progress(f"compressing {input.name}", total=steps) as update:
+        comp = compress_motion(
+            motion, method.value, threshold=threshold, target_icr=target_icr, max_position_error=bound,
+            max_segment_length=max_segment_length, progress=update,
+        )
+        if bound is not None:
+            verify_position_bound(motion, comp, bound)
     rec = {"file": str(input), **report(comp, ucm), "unit_cm_assumed": assumed}
     if output is not None:
         if output.suffix.lower() == ".bvh":
@@ -214,7 +332,7 @@ def _compress_skeletal(input, output, method, threshold, target_icr, max_positio
                   "aad_deg", "max_deg", "bytes_raw", "bytes_out", "ratio"):
             v = rec[k]
             tab.add_row(k, f"{v:.4g}" if isinstance(v, float) else str(v))
-        err.print(tab)
+        console.print(tab)
         if assumed:
             err.print("length unit assumed to be 1 cm; give --unit-cm for other units")
 
@@ -224,6 +342,10 @@ def info(
     input: Annotated[Path, typer.Argument(help="BVH, AMC, C3D, Qualisys TSV, IMU file or sensor folder.")],
     asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
     rate: RateOpt = None,
+    time_column: TimeColumnOpt = None,
+    quaternion_columns: QuatColumnsOpt = None,
+    scalar_last: ScalarLastOpt = False,
+    time_unit: TimeUnitOpt = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
     strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: a Frames: count that disagrees with the data is an error (default) or is recorded.")] = True,
 ) -> None:
@@ -251,40 +373,89 @@ def info(
             "duration_s": float(mk.times.shape[0] / mk.rate), "markers": len(mk.labels), "labels": list(mk.labels),
             "units": mk.units, "missing_fraction": float(np.isnan(mk.positions[..., 0]).mean()),
             "analog_channels": 0 if not mk.analog else len(mk.analog.get("labels", [])),
+            "format": mk.meta.get("format"), "warnings": list(mk.meta.get("warnings", [])),
+        }
+    elif kind == "table":
+        from mocapkit.io.opensim import read_table
+
+        sig = read_table(input)
+        rec = {
+            "file": str(input), "kind": "table", "name": sig.meta.get("name"), "frames": len(sig),
+            "rate_hz": sig.meta.get("rate") or sig.mean_rate, "duration_s": sig.duration,
+            "columns": sig.values.shape[1], "labels": list(sig.meta["labels"]),
+            "in_degrees": sig.meta.get("in_degrees"), "format": sig.meta.get("format"),
+            "warnings": list(sig.meta.get("warnings", [])),
         }
     else:
         from mocapkit.io import load_signals
 
-        sigs = load_signals(input, rate=rate)
+        sigs = load_signals(input, rate=rate, **_columns(time_column, quaternion_columns, scalar_last, time_unit))
         rec = {
             "file": str(input), "kind": "imu", "signals": {
                 n: {"samples": len(s), "duration_s": s.duration, "mean_rate_hz": s.mean_rate,
-                    "format": s.meta.get("format"), "largest_gap_s": float(np.diff(s.times).max()) if len(s) > 1 else 0.0}
+                    "format": s.meta.get("format"), "largest_gap_s": float(np.diff(s.times).max()) if len(s) > 1 else 0.0,
+                    "time_column": s.meta.get("time_column"), "time_unit": s.meta.get("time_unit"),
+                    "stated_rate_hz": s.meta.get("rate"),
+                    "orientation_columns": s.meta.get("orientation_columns"), "conversion": s.meta.get("conversion")}
                 for n, s in sigs.items()
             },
+            "warnings": [f"{n}: {w}" for n, s in sigs.items() for w in s.meta.get("warnings", [])],
         }
     if as_json:
         print(json.dumps(rec, indent=1))
     else:
-        tab = Table(title=str(input))
-        tab.add_column("field")
-        tab.add_column("value")
-        for k, v in rec.items():
-            if k in ("joint_names", "joint_channels", "labels"):
-                v = f"{len(v)} entries (see --json)"
-            tab.add_row(k, str(v))
-        err.print(tab)
+        _print_info(rec)
+
+
+def _fmt(v) -> str:
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    if isinstance(v, (list, tuple)):
+        return ", ".join(_fmt(x) for x in v) if v else "-"
+    return "-" if v is None else str(v)
+
+
+def _print_info(rec: dict) -> None:
+    """``info``'s record as tables on stdout: the file's fields, then one row per signal."""
+    tab = Table(title=rec.get("file"))
+    tab.add_column("field")
+    tab.add_column("value")
+    nested = {}
+    for k, v in rec.items():
+        if k == "file":
+            continue
+        if isinstance(v, dict) and v and all(isinstance(x, dict) for x in v.values()):
+            nested[k] = v  # e.g. IMU signals: a table of their own
+            continue
+        if k in ("joint_names", "joint_channels", "labels"):
+            v = f"{len(v)} entries (see --json)"
+        elif k == "warnings":
+            v = "\n".join(map(str, v)) if v else "-"
+        tab.add_row(k, _fmt(v))
+    console.print(tab)
+    for k, rows in nested.items():
+        cols = list(dict.fromkeys(c for r in rows.values() for c in r))
+        sub = Table(title=k)
+        sub.add_column("name")
+        for c in cols:
+            sub.add_column(c, justify="right")
+        for name, r in rows.items():
+            sub.add_row(name, *(_fmt(r.get(c)) for c in cols))
+        console.print(sub)
 
 
 @app.command()
 def convert(
-    input: Annotated[Path, typer.Argument(help="AMC (+ --asf) or BVH; C3D or Qualisys TSV.")],
-    output: Annotated[Path, typer.Argument(help="BVH or AMC for skeletal input; CSV for markers.")],
+    input: Annotated[Path, typer.Argument(help="AMC (+ --asf), BVH or Xsens MVNX; markers (C3D, TSV, TRC, CSV); MOT/STO.")],
+    output: Annotated[Path, typer.Argument(help="BVH or AMC for skeletal input; .csv/.c3d/.trc for markers; .mot/.sto/.csv for tables.")],
     asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
     precision: Annotated[int, typer.Option("--precision", help="Decimals written to BVH.")] = 6,
     strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: Frames: mismatch is an error (default) or is recorded.")] = True,
+    max_residual: Annotated[float, typer.Option("--max-residual", help="BVH -> AMC: largest rotation (deg) the ASF's dofs may fail to express.")] = 0.1,
 ) -> None:
-    """Convert AMC (with its ASF) to BVH and back (BVH + --asf to AMC), and markers (C3D, TSV) to CSV."""
+    """Convert AMC (with its ASF) to BVH and back (BVH + --asf to AMC); markers (C3D, TSV, TRC, Vicon CSV)
+    to CSV, C3D or TRC; OpenSim MOT/STO to MOT, STO or CSV."""
+    _check_output(output)
     from mocapkit.io.loaders import kind_of, load_motion
 
     kind = kind_of(input)
@@ -297,6 +468,8 @@ def convert(
 
             m = load_motion(input, asf=asf, strict=strict)
             write_bvh(output, m, precision=precision)
+            ucm = m.skeleton.meta.get("length_unit_cm")
+            note = "" if ucm is None else f"; lengths in the input's unit (1 unit = {ucm:g} cm)"
         else:
             if asf is None or input.suffix.lower() != ".bvh":
                 raise InvalidParameterError("BVH -> AMC needs --asf (the skeleton the BVH was made from)")
@@ -304,20 +477,50 @@ def convert(
 
             m = load_motion(input, strict=strict)
             try:
-                write_amc(output, m, read_asf(asf))
+                rep = write_amc(output, m, read_asf(asf), max_residual_deg=max_residual)
             except InvalidSignalError as e:  # a rotation the ASF's dofs cannot express: name the files
-                raise InvalidSignalError(f"{input} -> {output}: {e}") from None
-        err.print(f"{input} -> {output}: {m.n_frames} frames, {m.skeleton.n_joints} joints")
+                raise InvalidSignalError(f"{input} -> {output}: {e}; --max-residual DEG sets the limit") from None
+            note = (f"; largest rotation residual {rep['max_residual_deg']:.3g} deg ({rep['joint']}, frame "
+                    f"{rep['frame']}; limit {max_residual:g} deg)")
+        err.print(f"{input} -> {output}: {m.n_frames} frames, {m.skeleton.n_joints} joints{note}")
+        for w in m.meta.get("warnings", []):
+            err.print(f"warning: {input}: {w}")
     elif kind == "markers":
-        if output.suffix.lower() != ".csv":
-            raise InvalidParameterError(f"{output}: markers convert to .csv")
-        from mocapkit.markers import load_markers
+        from mocapkit.io.loaders import MARKER_WRITE_SUFFIXES, load_markers, write_markers
 
+        if output.suffix.lower() not in MARKER_WRITE_SUFFIXES:
+            raise InvalidParameterError(f"{output}: markers convert to {', '.join(MARKER_WRITE_SUFFIXES)}")
         mk = load_markers(input)
-        mk.to_csv(output)
+        write_markers(mk, output)
         err.print(f"{input} -> {output}: {mk.times.shape[0]} frames, {len(mk.labels)} markers")
+        for w in mk.meta.get("warnings", []):
+            err.print(f"warning: {input}: {w}")
+    elif input.suffix.lower() in (".mot", ".sto"):
+        from mocapkit.io.opensim import read_opensim_signals, write_orientations, write_table
+
+        suffix = output.suffix.lower()
+        if suffix not in (".mot", ".sto", ".csv"):
+            raise InvalidParameterError(f"{output}: an OpenSim table converts to .mot, .sto or .csv")
+        sigs = read_opensim_signals(input)
+        first = next(iter(sigs.values()))
+        if suffix == ".csv":
+            from mocapkit.io.atomic import atomic_write_text
+
+            if kind == "table":
+                head = ["time", *first.meta["labels"]]
+            else:
+                head = ["time"] + [f"{n}_{c}" for n in sigs for c in "wxyz"]
+            body = np.column_stack([first.times] + [s.values for s in sigs.values()])
+            atomic_write_text(output, ",".join(head) + "\n" + "".join(
+                ",".join(repr(float(v)) for v in row) + "\n" for row in body))
+        elif kind == "table":
+            write_table(first, output)
+        else:
+            write_orientations(sigs, output, rate=first.meta.get("rate"))
+        err.print(f"{input} -> {output}: {len(first)} frames, "
+                  + (f"{first.values.shape[1]} columns" if kind == "table" else f"{len(sigs)} IMUs"))
     else:
-        raise InvalidParameterError(f"{input}: convert reads BVH, AMC, C3D or TSV files")
+        raise InvalidParameterError(f"{input}: convert reads BVH, AMC, markers (C3D, TSV, TRC, CSV) or MOT/STO files")
 
 
 class Solver(str, Enum):
@@ -334,11 +537,10 @@ def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
     if markers is not None and columns is not None:
         raise InvalidParameterError("give --markers or --columns, not both")
     is_markers = kind_of(input) == "markers"
-    if not is_markers and input.suffix.lower() == ".csv":
-        head = input.open(encoding="utf-8", errors="replace").readline()
-        is_markers = head.strip().lower().startswith("time,") and "_x" in head
-        if columns is not None:
-            is_markers = False
+    if is_markers and columns is not None and input.suffix.lower() == ".csv":
+        from mocapkit.io.vicon_csv import is_vicon_csv
+
+        is_markers = is_vicon_csv(input)  # --columns reads a wide marker CSV as plain columns
     if is_markers:
         from mocapkit.markers import load_markers
 
@@ -398,11 +600,11 @@ def filter_cmd(
     input: Annotated[Path, typer.Argument(help="C3D, Qualisys TSV, marker CSV or a CSV with a time column.")],
     order: Annotated[int, typer.Option("--order", help="Polynomial order of every chunk.")] = 2,
     penalty: Annotated[Optional[float], typer.Option("--penalty", help="K: the cost of a knot, in signal units.")] = None,
-    auto: Annotated[bool, typer.Option("--auto", help="K from the noise level (see docs).")] = False,
+    auto: Annotated[bool, typer.Option("--auto", help="Choose the knot cost from the data (length-independent; see docs).")] = False,
     solver: Annotated[Solver, typer.Option("--solver", help="exact (global optimum) or iterative (the seed's).")] = Solver.exact,
     markers: Annotated[Optional[str], typer.Option("--markers", help="NAME[:xyz],... (knots shared by the components).")] = None,
     columns: Annotated[Optional[str], typer.Option("--columns", help="CSV columns to filter, each on its own.")] = None,
-    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Filtered values at the input times (CSV).")] = None,
+    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Filtered values at the input times: CSV, or .c3d/.trc for markers.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Knots and polynomial pieces as JSON.")] = False,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="PNG: position and two derivatives of the first signal.")] = None,
 ) -> None:
@@ -413,15 +615,38 @@ def filter_cmd(
         raise InvalidParameterError("give exactly one of --penalty K or --auto")
     if order < 0:
         raise InvalidParameterError("--order must be >= 0")
+    _check_output(output)
+    _check_output(plot)
+    marker_out = output is not None and output.suffix.lower() in (".c3d", ".trc")
+    if marker_out:
+        from mocapkit.io.loaders import kind_of
+
+        if kind_of(input) != "markers" or columns is not None:
+            raise InvalidParameterError(f"{output}: a .c3d/.trc output needs a marker file as input")
     signals = _filter_inputs(input, markers, columns)
     results = []
-    for name, t, Y, comps in signals:
-        r = fit(t, Y, order, penalty, solver.value)
-        results.append((name, t, Y, comps, r))
+    with _progress(f"filtering {input.name}", total=len(signals)) as update:
+        for i, (name, t, Y, comps) in enumerate(signals):
+            results.append((name, t, Y, comps, fit(t, Y, order, penalty, solver.value)))
+            update(i + 1)
+    for name, t, Y, comps, r in results:
         for a, b in r.unfitted:
             err.print(f"warning: {name}: samples at {a:g}..{b:g} s lie between long gaps and are too few to "
                       f"fit with order {order}: left out (NaN in the output)")
-    if output is not None:
+    if marker_out:
+        # filtered marker positions with the input's labels, rate and units; missing samples stay missing
+        from mocapkit.io.loaders import load_markers, write_markers
+        from mocapkit.markers import Markers
+
+        labels = [comps[0][:-2] for (_, _, _, comps, _) in results]
+        if any(comps != [f"{lab}_x", f"{lab}_y", f"{lab}_z"] for lab, (_, _, _, comps, _) in zip(labels, results)):
+            raise InvalidParameterError(f"{output}: a .c3d/.trc output needs whole markers (x, y, z), not components")
+        mk = load_markers(input)
+        pos = np.stack([np.where(np.isnan(Y), np.nan, np.asarray(r.evaluate(t)).reshape(Y.shape))
+                        for (_, t, Y, _, r) in results], axis=1)
+        write_markers(Markers(mk.times, pos, labels, mk.rate, units=mk.units, source=str(output),
+                              meta={"filtered_from": str(input)}), output, analog=False)
+    elif output is not None:
         from mocapkit.io.atomic import atomic_write_text
 
         t = results[0][1]
@@ -435,19 +660,21 @@ def filter_cmd(
             D = Y.shape[1]
             recs.append({
                 "name": name, "components": comps, "order": order, "penalty": r.penalty, "solver": r.solver,
-                "loss": r.loss, "iterative_loss": r.iterative_loss, "n_knots": r.n_knots,
+                "loss": r.loss, "iterative_loss": r.iterative_loss, "knot_cost": r.knot_cost, "n_knots": r.n_knots,
                 "pieces": [{"t0": p.t0, "t1": p.t1,
                             "coeffs": p.coeffs[:, 0].tolist() if D == 1 else [p.coeffs[:, d].tolist() for d in range(D)]}
                            for p in r.pieces],
             })
         print(json.dumps(recs, indent=1))
     else:
-        tab = Table(title=f"{input.name}: piecewise polynomials of order {order} ({solver.value})")
+        tab = Table(title=f"{input.name}: piecewise polynomials of order {order} "
+                          f"({'automatic knot cost' if auto else solver.value})")
         for c in ("signal", "K", "knots", "pieces", "loss", "iterative loss"):
             tab.add_column(c, justify="right")
         for name, t, Y, comps, r in results:
-            tab.add_row(name, f"{r.penalty:.4g}", str(r.n_knots), str(len(r.pieces)), f"{r.loss:.6g}", f"{r.iterative_loss:.6g}")
-        err.print(tab)
+            tab.add_row(name, f"{r.penalty:.4g}", str(r.n_knots), str(len(r.pieces)), f"{r.loss:.6g}",
+                        "–" if r.iterative_loss is None else f"{r.iterative_loss:.6g}")
+        console.print(tab)
     if plot is not None:
         from mocapkit.plot import plot_ppa
 
@@ -458,33 +685,60 @@ def filter_cmd(
 @app.command("filter-eval")
 def filter_eval(
     out: Annotated[Path, typer.Option("--out", help="Folder for the JSON results and figures.")] = Path("filter-out"),
-    juggling: Annotated[Optional[Path], typer.Option("--juggling", help="The Qualisys juggling TSV.")] = None,
-    sizes: Annotated[str, typer.Option("--sizes", help="Signal lengths for the exact solver's time curve.")] = "1000,2000,5000,10000,20000,50000",
+    juggling: Annotated[Optional[Path], typer.Option("--juggling", help="A marker file (Qualisys TSV, C3D, TRC, marker CSV) with thrown balls, Z up.")] = None,
+    balls: Annotated[Optional[str], typer.Option("--balls", help="Ball markers A,B,C (default: every marker that moves, see docs).")] = None,
+    controls: Annotated[Optional[str], typer.Option("--controls", help="Static control markers (default: every marker that does not move).")] = None,
+    penalty: Annotated[Optional[float], typer.Option("--penalty", help="K of Eq. 2 for the balls (default: --auto).")] = None,
+    unit_m: Annotated[float, typer.Option("--unit-m", help="Metres per unit of the marker file (mm: 0.001).")] = 1e-3,
+    sizes: Annotated[str, typer.Option("--sizes", help="Signal lengths for the exact solver's time curve ('' to skip).")] = "1000,2000,5000,10000,20000,50000",
 ) -> None:
     """The filtering experiments: synthetic Figure 2 signal, step overshoot, juggling flights, timing."""
-    from mocapkit.evaluation.filtering import evaluate_juggling, evaluate_synthetic, exact_time_curve, figures
+    from mocapkit.evaluation.filtering import evaluate_juggling, evaluate_synthetic, exact_time_curve, figures, moving_markers
     from mocapkit.io.atomic import atomic_write_text
 
-    out.mkdir(parents=True, exist_ok=True)
-    syn = evaluate_synthetic()
-    atomic_write_text(out / "synthetic.json", json.dumps(syn, indent=1))
-    mk = None
-    if juggling is not None:
+    mk = ball_list = None
+    ctrl: list[str] = []
+    if juggling is not None:  # read and check everything before any long computation
         from mocapkit.markers import load_markers
 
         mk = load_markers(juggling)
-        balls = [b for b in mk.labels if not b.startswith("base") and
-                 np.isfinite(mk.positions[:, mk.labels.index(b), 2]).mean() >= 0.5]
-        jug = evaluate_juggling(mk, balls)
+        moving, static = moving_markers(mk)
+
+        def names(opt: str, what: str) -> list[str]:
+            got = [b.strip() for b in opt.split(",") if b.strip()]
+            bad = [b for b in got if b not in mk.labels]
+            if bad or not got:
+                raise InvalidParameterError(f"{juggling}: no marker {', '.join(map(repr, bad)) or '(empty list)'} for "
+                                            f"{what} (markers: {', '.join(mk.labels)})")
+            return got
+
+        ball_list = names(balls, "--balls") if balls is not None else moving
+        ctrl = names(controls, "--controls") if controls is not None else static
+        if not ball_list:
+            raise InvalidParameterError(f"{juggling}: no moving marker with at least half of its frames found; "
+                                        "name the balls with --balls A,B,C")
+    if penalty is not None and not penalty >= 0:
+        raise InvalidParameterError("--penalty must be >= 0")
+    out.mkdir(parents=True, exist_ok=True)
+    syn = evaluate_synthetic()
+    atomic_write_text(out / "synthetic.json", json.dumps(syn, indent=1))
+    if mk is not None:
+        jug = evaluate_juggling(mk, ball_list, penalty=penalty, unit_m=unit_m, controls=ctrl)
         atomic_write_text(out / "juggling.json", json.dumps(jug, indent=1))
-        err.print(f"juggling: {jug['n_flights']} flights of {len(balls)} balls, median acceleration "
-                  f"{jug['median_flight_acc']:.3f} m/s²")
-    curve = exact_time_curve(tuple(int(x) for x in sizes.split(",")))
+        med = jug["median_flight_acc"]
+        err.print(f"juggling: {jug['n_flights']} flights of {len(ball_list)} balls ({', '.join(ball_list)}), median "
+                  f"acceleration {'–' if med is None else f'{med:.3f}'} m/s²"
+                  + (f"; knots on the static controls: {sum(c['knots'] for c in jug['controls'].values())} "
+                     f"({len(ctrl)} markers)" if ctrl else ""))
+    curve = exact_time_curve(tuple(int(x) for x in sizes.split(",") if x.strip()))
     atomic_write_text(out / "timing.json", json.dumps(curve, indent=1))
-    for p in figures(out, mk):
+    best = None
+    if mk is not None:
+        best = max(ball_list, key=lambda b: int(np.isfinite(mk.positions[:, mk.labels.index(b), 2]).sum()))
+    for p in figures(out, mk, best, penalty):
         err.print(f"wrote {p}")
     rows = syn["rows"]
-    for k in ("exact_f1", "iterative_f1", "exact_rmse", "butterworth_rmse", "spline_rmse",
+    for k in ("auto_f1", "exact_f1", "iterative_f1", "auto_rmse", "exact_rmse", "butterworth_rmse", "spline_rmse",
               "exact_overshoot", "butterworth_overshoot", "spline_overshoot"):
         err.print(f"synthetic {k}: mean {np.mean([r[k] for r in rows]):.4f}")
     for c in curve:
@@ -494,8 +748,8 @@ def filter_eval(
 
 @app.command()
 def decompress(
-    points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z).")],
-    output: Annotated[Path, typer.Option("--output", "-o", help="Reconstructed CSV.")],
+    points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z), or a compressed clip (.glb/.gltf).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Reconstructed CSV (.bvh for a clip).")],
     times_from: Annotated[
         Optional[Path], typer.Option("--times-from", help="Decode at the timestamps of this original file.")
     ] = None,
@@ -506,9 +760,19 @@ def decompress(
             help="Decode on a uniform grid at HZ; with --times-from, the rate of an ORIGINAL without timestamps.",
         ),
     ] = None,
+    time_column: TimeColumnOpt = None,
+    quaternion_columns: QuatColumnsOpt = None,
+    scalar_last: ScalarLastOpt = False,
+    time_unit: TimeUnitOpt = None,
 ) -> None:
-    """Reconstruct a full-rate quaternion signal from segment points by SLERP."""
+    """Reconstruct a full-rate quaternion signal from segment points by SLERP, or the full-rate motion
+    of a compressed skeletal clip (.glb/.gltf -> .bvh)."""
     import numpy as np
+
+    _check_output(output)
+    if points.suffix.lower() in (".glb", ".gltf"):
+        _decompress_clip(points, output, times_from, rate)
+        return
 
     from mocapkit.io import load_signals, read_imu_csv, write_signal_csv
     from mocapkit.pla.decode import reconstruct_points
@@ -518,7 +782,8 @@ def decompress(
         raise InvalidParameterError("give --times-from ORIGINAL or --rate HZ")
     pts = read_imu_csv(points)
     if times_from is not None:
-        originals = load_signals(times_from, rate=rate)
+        originals = load_signals(times_from, rate=rate,
+                                 **_columns(time_column, quaternion_columns, scalar_last, time_unit))
         if len(originals) != 1:
             raise InvalidParameterError(f"{times_from}: expected one signal, found {len(originals)}")
         t = next(iter(originals.values())).times
@@ -540,6 +805,19 @@ def decompress(
     err.print(f"{points}: {len(pts)} points -> {len(t)} samples in {output}")
 
 
+def _decompress_clip(clip: Path, output: Path, times_from: Optional[Path], rate: Optional[float]) -> None:
+    from mocapkit.io.bvh import write_bvh
+    from mocapkit.io.gltf import read_gltf
+
+    if output.suffix.lower() != ".bvh":
+        raise InvalidParameterError(f"{output}: a skeletal clip decodes to .bvh")
+    if times_from is not None:
+        raise InvalidParameterError("--times-from is for IMU points; a clip keeps its frame times (or give --rate)")
+    motion = read_gltf(clip, rate=rate)
+    write_bvh(output, motion, precision=6)
+    err.print(f"{clip}: {motion.n_frames} frames, {motion.skeleton.n_joints} joints -> {output}")
+
+
 @app.command()
 def stream(
     method: MethodOpt = Method.fastsw,
@@ -547,6 +825,10 @@ def stream(
     max_angle: MaxAngleOpt = None,
     max_segment_length: MaxLenOpt = None,
     rate: RateOpt = None,
+    time_column: TimeColumnOpt = None,
+    quaternion_columns: QuatColumnsOpt = None,
+    scalar_last: ScalarLastOpt = False,
+    time_unit: TimeUnitOpt = None,
 ) -> None:
     """Read IMU CSV rows from stdin; write each segment point to stdout the moment it is decided."""
     from mocapkit.io.streamcsv import iter_samples
@@ -573,7 +855,8 @@ def stream(
     out.write("time,w,x,y,z\n")
     out.flush()
     try:
-        for _lineno, t, q in iter_samples(sys.stdin, "<stdin>", rate):
+        for _lineno, t, q in iter_samples(sys.stdin, "<stdin>", rate,
+                                            **_columns(time_column, quaternion_columns, scalar_last, time_unit)):
             emit(enc.push(t, q))
     finally:
         emit(enc.flush())
@@ -586,6 +869,10 @@ def sweep(
     n_thresholds: Annotated[int, typer.Option("--thresholds", help="Thresholds: 0 plus N-1 log-spaced in 1e-6..1e3.")] = 205,
     max_segment_length: Annotated[int, typer.Option("--max-segment-length")] = 1000,
     rate: RateOpt = None,
+    time_column: TimeColumnOpt = None,
+    quaternion_columns: QuatColumnsOpt = None,
+    scalar_last: ScalarLastOpt = False,
+    time_unit: TimeUnitOpt = None,
     asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for AMC inputs.")] = None,
     unit_cm: Annotated[Optional[list[str]], typer.Option("--unit-cm", help="NAME=CM per file (BVH has no unit).")] = None,
 ) -> None:
@@ -604,7 +891,9 @@ def sweep(
 
     signals = {}
     for p in inputs:
-        for name, sig in load_signals(p, rate=rate).items():
+        for name, sig in load_signals(
+            p, rate=rate, **_columns(time_column, quaternion_columns, scalar_last, time_unit)
+        ).items():
             key = name if name not in signals else f"{p.stem}/{name}"
             signals[key] = sig
     rows = run_sweep(signals, n_thresholds=n_thresholds, max_segment_length=max_segment_length, progress=err)
@@ -613,7 +902,7 @@ def sweep(
         from mocapkit.evaluation.sweep import write_max_angle
 
         paths.append(write_max_angle(signals, out))
-    err.print(summarise(rows))
+    console.print(summarise(rows))
     for p in paths:
         err.print(f"wrote {p}")
 
@@ -642,7 +931,7 @@ def _sweep_skeletal(inputs, out: Path, asf, unit_cm) -> None:
         stick_figure_png(m, out / f"fig5_{p.stem}.png")
     write_rows(rows, out / "skeletal.csv")
     plot_curves(rows, out / "icr_vs_position_error.png")
-    err.print(summary_table(rows))
+    console.print(summary_table(rows))
     err.print(f"wrote {out / 'skeletal.csv'}, icr_vs_position_error.png and fig5_*.png")
 
 
@@ -659,9 +948,11 @@ def bench(
     if channels < 1 or frames < 100:
         raise InvalidParameterError("--channels must be >= 1 and --frames >= 100")
     records, summary = run_bench(channels=channels, frames=frames, quick=quick, progress=err)
-    err.print(summary)  # the table goes to stderr, so `--json > file` keeps both
-    if as_json:
+    if as_json:  # the JSON is the result; the table goes to stderr, so `--json > file` keeps both
+        err.print(summary)
         print(json.dumps(records, indent=1))
+    else:
+        console.print(summary)
 
 
 @app.command()
@@ -685,17 +976,14 @@ class SegMethod(str, Enum):
 
 
 def _read_reference(path: Path, n_frames: int, rate_hz: float):
-    """A labels file: CMU-86 HACA (``label a b c`` lines after a header) or mocap6 per-frame labels."""
-    from mocapkit.io.labels import read_frame_labels, read_haca_labels
+    """A labels file (CMU-86 HACA or mocap6 per-frame), checked against the take; its warnings
+    (one label block more or less than the take needs) are printed on stderr."""
+    from mocapkit.io.labels import read_reference
 
-    lines = [ln.split() for ln in Path(path).read_text(errors="replace").splitlines() if ln.strip()]
-    # HACA: a header line, then "label a b c" lines with a (non-integer) label name; mocap6: integers only
-    haca = any(not tok.lstrip("-").isdigit() for ln in lines[1:] for tok in ln)
-    if haca:
-        return read_haca_labels(path, n_frames=n_frames, rate_hz=rate_hz)
-    # mocap6 labels are at 10 Hz: 12 frames of a 120 Hz take per label
-    return read_frame_labels(path, n_frames=n_frames, frames_per_label=max(1, int(round(rate_hz / 10.0))),
-                             rate_hz=rate_hz)
+    ref = read_reference(path, n_frames, rate_hz)
+    for w in ref.warnings:
+        err.print(f"warning: {w}")
+    return ref
 
 
 def _pairs(items: Optional[list[str]], what: str) -> list[tuple[str, str]]:
@@ -706,24 +994,6 @@ def _pairs(items: Optional[list[str]], what: str) -> list[tuple[str, str]]:
         a, b = it.split("=", 1)
         out.append((a.strip(), b.strip()))
     return out
-
-
-def _rate_scaled(method: str, rate_hz: float) -> dict:
-    """The baselines' frame-count defaults (set for 120 Hz: 1 s shortest segment, 0.5 s smoothing,
-    Barbič's 2 s warm-up) scaled to the take's rate."""
-    f = rate_hz / 120.0
-
-    def fr(n: int) -> int:
-        return max(1, int(round(n * f)))
-
-    if method == "pca":
-        step = fr(5)
-        return {"k_init": fr(240), "step": step, "lag": step * max(1, round(fr(60) / step)), "min_segment": fr(120)}
-    if method in ("kmeans", "mlp"):
-        return {"smooth": fr(61) | 1, "min_segment": fr(120)}
-    if method in ("kernelcpd", "pelt"):
-        return {"min_size": max(2, fr(120))}
-    return {}
 
 
 @app.command()
@@ -743,7 +1013,11 @@ def segment(
     from mocapkit.io.loaders import load_motion
     from mocapkit.segment.features import LIMB_NAMES, motion_features, pose_features
 
+    _check_output(plot)
     motion = load_motion(input, asf=asf, rate=rate)
+    rate_hz = float(motion.rate)
+    # the labels are read and checked against the take before any segmenting
+    ref = _read_reference(labels, motion.n_frames, rate_hz) if labels is not None else None
     jmap = dict(_pairs(joint, "--joint"))
     feats = motion_features(motion, jmap)
     m = method.value
@@ -764,17 +1038,18 @@ def segment(
             data = []
             for mot, lab in _pairs(train, "--train"):
                 tm = load_motion(mot, asf=asf, rate=rate)
-                ref = _read_reference(Path(lab), tm.n_frames, tm.rate)
-                data.append((motion_features(tm, jmap).limbs, np.asarray(ref.labels, dtype=object)[ref.frame_labels()]))
+                tref = _read_reference(Path(lab), tm.n_frames, tm.rate)
+                data.append((motion_features(tm, jmap).limbs, np.asarray(tref.labels, dtype=object)[tref.frame_labels()]))
             kw["train"] = data
         elif train:
             raise InvalidParameterError("--train is only for --method mlp")
-        kw.update(_rate_scaled(m, float(motion.rate)))
+        from mocapkit.evaluation.segmentation import rate_scaled
+
+        kw.update(rate_scaled(m, float(motion.rate)))  # the baselines' 120 Hz frame counts at this rate
         seg = BASELINES[m](**kw)
     X = pose_features(motion) if m == "pca" else feats.limbs
-    cuts = seg.fit_predict(X)
-    rate_hz = float(motion.rate)
-    ref = _read_reference(labels, motion.n_frames, rate_hz) if labels is not None else None
+    with _progress(f"segmenting {input.name} ({m})"):
+        cuts = seg.fit_predict(X)
     if as_json:
         rec = {"method": m, "n_frames": motion.n_frames, "rate_hz": rate_hz,
                "cuts": [{"frame": int(c), "time_s": float(c) / rate_hz} for c in cuts]}
@@ -785,19 +1060,19 @@ def segment(
             rec["scores"] = score(cuts, ref)
         print(json.dumps(rec, indent=1))
     else:
-        Console().print(f"{input.name}: {len(cuts)} cuts ({m}, {motion.n_frames} frames at {rate_hz:g} Hz)")
+        console.print(f"{input.name}: {len(cuts)} cuts ({m}, {motion.n_frames} frames at {rate_hz:g} Hz)")
         tab = Table()
         tab.add_column("cut", justify="right")
         tab.add_column("frame", justify="right")
         tab.add_column("time (s)", justify="right")
         for i, c in enumerate(cuts, 1):
             tab.add_row(str(i), str(int(c)), f"{c / rate_hz:.3f}")
-        Console().print(tab)
+        console.print(tab)
         if ref is not None:
             from mocapkit.evaluation.segmentation import score
 
             sc = score(cuts, ref)
-            Console().print(f"against {labels.name}: RI {sc['ri']:.3f}, F1 {sc['f1']:.3f} "
+            console.print(f"against {labels.name}: RI {sc['ri']:.3f}, F1 {sc['f1']:.3f} "
                             f"(P {sc['precision']:.3f}, R {sc['recall']:.3f}), Covering {sc['covering']:.3f}")
     if plot is not None:
         from mocapkit.plot import plot_segmentation
@@ -809,26 +1084,39 @@ def segment(
 
 @app.command("segment-bench")
 def segment_bench(
+    takes: Annotated[Optional[list[str]], typer.Argument(help="Labelled takes: TAKE=LABELS pairs or folders of takes with TAKE.labels.txt beside them (default: the shared CMU set).")] = None,
+    asf: Annotated[Optional[Path], typer.Option("--asf", help="ASF skeleton for AMC takes.")] = None,
+    rate: Annotated[Optional[float], typer.Option("--rate", help="Frame rate of AMC takes (default 120 Hz).")] = None,
     data: Annotated[Path, typer.Option("--data", help="The shared data folder (cmu/ and tssb/).")] = Path("../shared/data"),
     out: Annotated[Optional[Path], typer.Option("--out", help="Folder for segment_bench.json and .md.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print all rows as JSON.")] = False,
     methods: Annotated[str, typer.Option("--methods", help="Comma-separated methods.")] = "arma,pca,kmeans,mlp,kernelcpd,pelt,clasp",
-    tssb: Annotated[bool, typer.Option("--tssb/--no-tssb", help="Also run the 75 TSSB series.")] = True,
+    tssb: Annotated[Optional[bool], typer.Option("--tssb/--no-tssb", help="Also run the 75 TSSB series (default: only without TAKES).")] = None,
     tssb_limit: Annotated[Optional[int], typer.Option("--tssb-limit", help="Only the first N TSSB series.")] = None,
     known_k: Annotated[bool, typer.Option("--known-k", help="Add rows given the true number of cuts (separate mode).")] = False,
 ) -> None:
-    """Every segmentation method on the labelled CMU takes and on TSSB: RI, F1, Covering, seconds."""
-    from mocapkit.evaluation.segmentation import MOCAP_METHODS, TSSB_METHODS, markdown, run_mocap, run_tssb, summarise
+    """Every segmentation method on labelled takes (yours, or the shared CMU set) and on TSSB: RI, F1,
+    Covering, seconds. Every label file is checked against its take before any segmenting."""
+    from mocapkit.evaluation.segmentation import (MOCAP_METHODS, TSSB_METHODS, find_pairs, load_user_takes, markdown,
+                                                  run_mocap, run_tssb, summarise)
 
     ms = [m.strip() for m in methods.split(",") if m.strip()]
     bad = [m for m in ms if m not in MOCAP_METHODS]
     if bad:
         raise InvalidParameterError(f"unknown method(s) {bad}; choose from {', '.join(MOCAP_METHODS)}")
     cmu_dir, tssb_dir = data / "cmu", data / "tssb"
-    if not cmu_dir.is_dir():
-        raise InvalidParameterError(f"{cmu_dir} not found: give the shared data folder with --data")
     log = (lambda s: err.print(s)) if not as_json else None
-    rows = run_mocap(cmu_dir, ms, known_k=known_k, log=log)
+    if takes:
+        source = load_user_takes(find_pairs(takes), asf=asf, rate=rate, log=lambda s: err.print(s))
+        tssb = bool(tssb)
+    else:
+        if not cmu_dir.is_dir():
+            raise InvalidParameterError(f"{cmu_dir} not found: give the shared data folder with --data, or TAKE=LABELS")
+        source = cmu_dir
+        tssb = True if tssb is None else tssb
+    if tssb and not tssb_dir.is_dir():
+        raise InvalidParameterError(f"{tssb_dir} not found (or use --no-tssb)")
+    rows = run_mocap(source, ms, known_k=known_k, log=log)
     trows = []
     if tssb:
         if not tssb_dir.is_dir():

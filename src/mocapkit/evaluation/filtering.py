@@ -53,22 +53,25 @@ def knot_f1(found: np.ndarray, true: np.ndarray, margin: int = 2) -> float:
 
 
 def evaluate_synthetic(penalty: float | None = None, seeds=range(10), noise: float = 0.1) -> dict:
+    """Knot F1, RMSE and step overshoot on the Figure 2 signal. ``penalty=None``: the automatic
+    mode, with the iterative and exact solvers of Eq. 2 run at its equivalent ``K``."""
     rows = []
     for seed in seeds:
         t, y, clean, true = synthetic_signal(noise=noise, seed=seed)
         fs = 1.0 / (t[1] - t[0])
-        it = fit(t, y, 2, penalty, "iterative")
-        ex = fit(t, y, 2, penalty, "exact")
+        auto = fit(t, y, 2, None) if penalty is None else None
+        K = auto.penalty if auto is not None else penalty
+        it = fit(t, y, 2, K, "iterative")
+        ex = fit(t, y, 2, K, "exact")
         fc, _ = winter_residual_cutoff(y, fs)
         bw = np.asarray(butterworth_filtfilt(y, fs, float(fc))).reshape(-1)
         sp, lam = smoothing_spline(t, y)
         sp = np.asarray(sp).reshape(-1)
-        k1, k2 = true[0], true[1]
-        seg = slice(0, k2)  # around the step: the overshoot of each filter relative to the clean step
-        row = {"seed": seed, "K": ex.penalty, "fc_hz": float(fc)}
-        for name, est, knots in (("iterative", it.evaluate(t)[:, 0], it.parts[0].knots[1:-1]),
-                                 ("exact", ex.evaluate(t)[:, 0], ex.parts[0].knots[1:-1]),
-                                 ("butterworth", bw, None), ("spline", sp, None)):
+        seg = slice(0, int(true[1]))  # around the step: the overshoot of each filter relative to the clean step
+        row = {"seed": seed, "K": ex.penalty, "knot_cost": None if auto is None else auto.knot_cost, "fc_hz": float(fc)}
+        fits = [("iterative", it), ("exact", ex)] + ([("auto", auto)] if auto is not None else [])
+        for name, est, knots in [(n, r.evaluate(t)[:, 0], r.parts[0].knots[1:-1]) for n, r in fits] + [
+                ("butterworth", bw, None), ("spline", sp, None)]:
             row[f"{name}_rmse"] = float(np.sqrt(np.mean((est - clean) ** 2)))
             row[f"{name}_overshoot"] = float(step_overshoot(est[seg], clean[seg]))
             if knots is not None:
@@ -80,47 +83,77 @@ def evaluate_synthetic(penalty: float | None = None, seeds=range(10), noise: flo
     return {"rows": rows, "true_knots": [int(k) for k in true], "noise": noise}
 
 
+def moving_markers(markers, min_valid: float = 0.5, ratio: float = 100.0) -> tuple[list[str], list[str]]:
+    """``(moving, static)`` marker labels, among those with at least ``min_valid`` of their frames.
+
+    Rule (unit-free): a marker moves when the spread of its positions (the largest over X, Y, Z of
+    the 5–95 % inter-percentile range) is more than ``ratio`` times its own sample-to-sample noise
+    σ̂ (:func:`mocapkit.filters.penalty.noise_sigma`, order 2). A static marker's spread is its noise
+    and drift (a few σ̂); a thrown ball's is hundreds of millimetres against σ̂ of hundredths.
+    """
+    from mocapkit.filters.penalty import noise_sigma
+
+    moving, static = [], []
+    for j, lab in enumerate(markers.labels):
+        P = markers.positions[:, j, :]
+        ok = np.isfinite(P).all(axis=1)
+        if ok.mean() < min_valid or ok.sum() < 10:
+            continue
+        spread = float(np.max(np.percentile(P[ok], 95, axis=0) - np.percentile(P[ok], 5, axis=0)))
+        sig = noise_sigma(P, 2)
+        (moving if spread > ratio * max(sig, 1e-300) else static).append(lab)
+    return moving, static
+
+
 def flights(result, min_duration: float = 0.2):
     """Pieces that are free flights: concave (negative second derivative) and at least ``min_duration``
     long — identified without looking at the acceleration's size."""
     return [p for p in result.pieces if p.coeffs.shape[0] > 2 and p.coeffs[2, 0] < 0 and p.t1 - p.t0 >= min_duration]
 
 
-def evaluate_juggling(markers, balls, penalty: float = 100.0, unit_m: float = 1e-3) -> dict:
-    """Vertical ball trajectories (Z up, mm) with O = 2: per-flight acceleration of the fit (2·c2)
-    and of the Butterworth-filtered signal (second derivative by central differences)."""
-    out = {"balls": {}, "penalty": penalty}
+def evaluate_juggling(markers, balls, penalty: float | None = None, unit_m: float = 1e-3, controls=(),
+                      axis: int = 2) -> dict:
+    """Vertical ball trajectories (``axis``, default Z up; ``unit_m`` metres per unit, mm by default)
+    with O = 2: per-flight acceleration of the fit (2·c2) and of the Butterworth-filtered signal
+    (second derivative by central differences). ``penalty=None``: the automatic mode. ``controls``:
+    static markers, filtered the same way in 3-D (their knot count should be 0)."""
+    out = {"balls": {}, "controls": {}, "penalty": penalty, "mode": "auto" if penalty is None else "fixed K"}
     all_acc = []
     for b in balls:
-        z = markers.positions[:, markers.labels.index(b), 2]
+        z = markers.positions[:, markers.labels.index(b), axis]
         t = markers.times
         r = fit(t, z, 2, penalty, "exact")
         fl = flights(r)
         acc = [float(2 * p.coeffs[2, 0] * unit_m) for p in fl]
         all_acc += acc
         rec = {"knots": r.n_knots, "pieces": len(r.pieces), "flights": len(fl), "flight_acc_m_s2": acc,
-               "median_acc": float(np.median(acc)) if acc else float("nan"),
+               "median_acc": float(np.median(acc)) if acc else None, "K": r.penalty, "knot_cost": r.knot_cost,
                "loss": r.loss, "iterative_loss": r.iterative_loss}
         ok = ~np.isnan(z)
         # Butterworth on the longest NaN-free run
         runs = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(int), [0]])))
         a, e = max(zip(runs[::2], runs[1::2]), key=lambda r_: r_[1] - r_[0])
         fs = markers.rate
-        fc, _ = winter_residual_cutoff(z[a:e], fs)
-        zb = np.asarray(butterworth_filtfilt(z[a:e], fs, float(fc))).reshape(-1)
-        ab = np.gradient(np.gradient(zb, t[a:e]), t[a:e]) * unit_m
         stds, means = [], []
-        for p in fl:
-            sel = (t[a:e] >= p.t0 + 0.05) & (t[a:e] <= p.t1 - 0.05)
-            if sel.sum() > 10:
-                stds.append(float(ab[sel].std()))
-                means.append(float(ab[sel].mean()))
+        fc = float("nan")
+        if e - a >= 30:
+            fc, _ = winter_residual_cutoff(z[a:e], fs)
+            zb = np.asarray(butterworth_filtfilt(z[a:e], fs, float(fc))).reshape(-1)
+            ab = np.gradient(np.gradient(zb, t[a:e]), t[a:e]) * unit_m
+            for p in fl:
+                sel = (t[a:e] >= p.t0 + 0.05) & (t[a:e] <= p.t1 - 0.05)
+                if sel.sum() > 10:
+                    stds.append(float(ab[sel].std()))
+                    means.append(float(ab[sel].mean()))
         rec.update({"butterworth_fc_hz": float(fc), "butterworth_flight_acc_std": stds,
                     "butterworth_flight_acc_mean": means})
         cycles = max(len(fl), 1)
         rec["parameters_per_cycle"] = float((len(r.pieces) * 3 + r.n_knots) / cycles)
         out["balls"][b] = rec
-    out["median_flight_acc"] = float(np.median(all_acc))
+    for c in controls:
+        r = fit(markers.times, markers.positions[:, markers.labels.index(c), :], 2, penalty, "exact")
+        out["controls"][c] = {"knots": r.n_knots, "K": r.penalty, "knot_cost": r.knot_cost}
+    out["median_flight_acc"] = float(np.median(all_acc)) if all_acc else None
     out["n_flights"] = len(all_acc)
     return out
 
@@ -147,7 +180,7 @@ def exact_time_curve(sizes=(1000, 2000, 5000, 10000, 20000, 50000), penalty: flo
     return rows
 
 
-def figures(out: Path, markers=None, ball: str = "unnamed_6", penalty: float = 100.0) -> list[Path]:
+def figures(out: Path, markers=None, ball: str | None = None, penalty: float | None = None) -> list[Path]:
     """Figure 1 (filtfilt overshoot at a clean step), Figure 2 (the synthetic signal with every
     method) and Figure 3 (a juggled ball, its fit and two derivatives, with Butterworth)."""
     from mocapkit.plot import _save, plot_ppa, plt
@@ -174,8 +207,9 @@ def figures(out: Path, markers=None, ball: str = "unnamed_6", penalty: float = 1
     t, y, clean, true = synthetic_signal(seed=0)
     fs = 1.0 / (t[1] - t[0])
     fc, _ = winter_residual_cutoff(y, fs)
-    ex = fit(t, y, 2, None, "exact")
-    it = fit(t, y, 2, None, "iterative")
+    auto = fit(t, y, 2, None)
+    ex = fit(t, y, 2, auto.penalty, "exact")
+    it = fit(t, y, 2, auto.penalty, "iterative")
     fig, ax = plt.subplots(figsize=(9, 3.8))
     ax.plot(t, y, ".", ms=2, color="0.6", label="noisy signal")
     ax.plot(t, clean, "k", lw=1, label="clean")
@@ -193,16 +227,18 @@ def figures(out: Path, markers=None, ball: str = "unnamed_6", penalty: float = 1
     fig.tight_layout()
     paths.append(_save(fig, out / "fig2_synthetic.png"))
     # Figure 3
-    if markers is not None:
+    if markers is not None and ball is not None:
         z = markers.positions[:, markers.labels.index(ball), 2]
         tt = markers.times
-        sel = tt <= 5.0
+        sel = tt <= tt[0] + 5.0
+    if markers is not None and ball is not None and np.isfinite(z[sel]).all() and sel.sum() >= 30:
         r = fit(tt[sel], z[sel], 2, penalty, "exact")
         fc, _ = winter_residual_cutoff(z[sel], markers.rate)
         zb = np.asarray(butterworth_filtfilt(z[sel], markers.rate, float(fc))).reshape(-1)
         vb = np.gradient(zb, tt[sel])
         ab = np.gradient(vb, tt[sel])
         paths.append(plot_ppa(tt[sel], z[sel], r, out / "fig3_juggling.png",
-                              title=f"juggled ball {ball}, Z (mm), O = 2, K = {penalty:g}; Butterworth fc = {float(fc):.1f} Hz",
+                              title=f"juggled ball {ball}, Z, O = 2, "
+                                    f"{'automatic' if penalty is None else f'K = {penalty:g}'}; Butterworth fc = {float(fc):.1f} Hz",
                               butter=(zb, vb, ab)))
     return paths

@@ -48,7 +48,7 @@ class Take:
 
 
 def load_take(cmu_dir: Path, name: str) -> Take:
-    """Features and reference of one shared CMU take."""
+    """Features and reference of one shared CMU take (labels checked before the features)."""
     from mocapkit.io.loaders import load_motion
     from mocapkit.segment.features import motion_features, pose_features
 
@@ -61,15 +61,87 @@ def load_take(cmu_dir: Path, name: str) -> Take:
     return Take(name, feats.limbs, pose_features(motion), ref, actions)
 
 
+def find_pairs(items, label_suffix: str = ".labels.txt") -> list[tuple[Path, Path]]:
+    """``(motion, labels)`` pairs from ``TAKE=LABELS`` strings and folders (every motion file
+    ``X.<ext>`` of a folder with a ``X.labels.txt`` beside it; ASF files are skeletons, not takes)."""
+    from mocapkit.errors import InvalidParameterError
+
+    out = []
+    for it in items:
+        it = str(it)
+        if "=" in it:
+            a, b = it.split("=", 1)
+            out.append((Path(a.strip()), Path(b.strip())))
+            continue
+        folder = Path(it)
+        if not folder.is_dir():
+            raise InvalidParameterError(f"{it}: expected TAKE=LABELS or a folder of takes with TAKE.labels.txt beside them")
+        found = [(f, f.with_name(f.stem + label_suffix)) for f in sorted(folder.iterdir())
+                 if f.is_file() and not f.name.endswith(label_suffix) and f.suffix.lower() not in (".asf", ".txt", ".md")
+                 and f.with_name(f.stem + label_suffix).is_file()]
+        if not found:
+            raise InvalidParameterError(f"{folder}: no take with a {label_suffix} file beside it")
+        out += found
+    return out
+
+
+def load_user_takes(pairs, asf: Path | None = None, rate: float | None = None, log=None) -> list[Take]:
+    """Every take and its labels. All label files are read and checked against their take's frame
+    count first (a bad file fails before any feature is computed); then the features."""
+    from mocapkit.io.labels import read_reference
+    from mocapkit.io.loaders import load_motion
+    from mocapkit.segment.features import motion_features, pose_features
+
+    motions = []
+    for mot, lab in pairs:
+        motion = load_motion(mot, asf=asf, rate=rate)
+        ref = read_reference(lab, motion.n_frames, float(motion.rate))
+        for w in ref.warnings:
+            if log:
+                log(f"warning: {w}")
+        motions.append((Path(mot).stem, motion, ref))
+    takes = []
+    for name, motion, ref in motions:
+        feats = motion_features(motion)
+        actions = np.asarray(ref.labels, dtype=object)[ref.frame_labels()]
+        takes.append(Take(name, feats.limbs, pose_features(motion), ref, actions))
+    return takes
+
+
+def rate_scaled(method: str, rate_hz: float) -> dict:
+    """Settings of a take at ``rate_hz``: the library defaults are set for 120 Hz (1 s shortest segment,
+    0.5 s smoothing, Barbič's 2 s warm-up; ARMA keeps every 4th frame, ~30 Hz); at another rate the
+    frame counts are scaled and ARMA keeps the factor nearest 30 Hz (as the ``segment`` command does).
+    At 120 Hz: no change (``{}``)."""
+    if abs(rate_hz - 120.0) < 1e-9:
+        return {}
+    f = rate_hz / 120.0
+
+    def fr(n: int) -> int:
+        return max(1, int(round(n * f)))
+
+    if method == "arma":
+        return {"downsample": max(1, int(round(rate_hz / 30.0)))}
+    if method == "pca":
+        step = fr(5)
+        return {"k_init": fr(240), "step": step, "lag": step * max(1, round(fr(60) / step)), "min_segment": fr(120)}
+    if method in ("kmeans", "mlp"):
+        return {"smooth": fr(61) | 1, "min_segment": fr(120)}
+    if method in ("kernelcpd", "pelt"):
+        return {"min_size": max(2, fr(120))}
+    return {}
+
+
 def make_segmenter(method: str, take: Take | None = None, others: list[Take] | None = None, n_cuts: int | None = None):
-    """A segmenter with the benchmark's settings (the library defaults; MLP trained on ``others``)."""
+    """A segmenter with the benchmark's settings (the library defaults, scaled to the take's rate by
+    :func:`rate_scaled`; MLP trained on ``others``)."""
     from mocapkit.segment.arma import ARMASegmenter
     from mocapkit.segment.baselines import BASELINES
 
+    kw = rate_scaled(method, take.ref.rate_hz) if take is not None else {}
     if method == "arma":
-        return ARMASegmenter()
+        return ARMASegmenter(**kw)
     cls = BASELINES[method]
-    kw = {}
     if method == "mlp":
         kw["train"] = [(t.limbs, t.actions) for t in (others or [])]
     if n_cuts is not None:
@@ -91,9 +163,15 @@ def score(pred, ref: Reference, margin_s: float = MARGIN_S) -> dict:
     }
 
 
-def run_mocap(cmu_dir: Path, methods=MOCAP_METHODS, known_k: bool = False, log=None) -> list[dict]:
-    """Every method on every labelled take: one row per (take, method)."""
-    takes = [load_take(cmu_dir, t) for t in MOCAP_TAKES]
+def run_mocap(cmu_dir, methods=MOCAP_METHODS, known_k: bool = False, log=None) -> list[dict]:
+    """Every method on every labelled take: one row per (take, method). ``cmu_dir``: the shared CMU
+    folder (its 4 takes), or a list of :class:`Take` (:func:`load_user_takes`). The MLP is trained
+    on the other takes, so it needs at least two (skipped otherwise, with a message)."""
+    takes = [load_take(cmu_dir, t) for t in MOCAP_TAKES] if isinstance(cmu_dir, (str, Path)) else list(cmu_dir)
+    if "mlp" in methods and len(takes) < 2:
+        methods = [m for m in methods if m != "mlp"]
+        if log:
+            log("mlp skipped: it is trained on the other takes and needs at least two")
     rows = []
     jobs = [(m, None) for m in methods] + ([(m, "known_k") for m in KNOWN_K_METHODS if m in methods] if known_k else [])
     for take in takes:
@@ -223,7 +301,7 @@ def markdown(mocap_rows: list[dict], tssb_rows: list[dict]) -> str:
                          f"{r['n_cuts']} / {r['n_ref_cuts']} | {r['seconds']:.2f} |")
         s = summarise(mocap_rows, [])["cmu"]
         lines.append("")
-        lines.append("| method (mean of 4 takes) | RI | F1 | Covering | s per take |")
+        lines.append(f"| method (mean of {len({r['take'] for r in mocap_rows})} takes) | RI | F1 | Covering | s per take |")
         lines.append("|---|---:|---:|---:|---:|")
         for m, v in s.items():
             lines.append(f"| {m} | {v['ri']:.3f} | {v['f1']:.3f} | {v['covering']:.3f} | {v['seconds']:.2f} |")

@@ -6,45 +6,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import comb
 
 from mocapkit.errors import InvalidParameterError
 from mocapkit.filters.chunks import PiecewisePolynomial, as_2d
 from mocapkit.filters.exact import solve_exact
+from mocapkit.filters.penalty import choose_knot_cost
 from mocapkit.filters.ppa import fit_iterative
-
-
-def noise_sigma(y: np.ndarray, order: int = 2) -> float:
-    """Robust noise level of a piecewise polynomial signal: differencing ``O + 1`` times removes every
-    polynomial of order ``O`` and leaves white noise multiplied by ``sqrt(C(2(O+1), O+1))``; the MAD
-    of what is left (/0.6745) ignores the few differences that straddle a knot. NaN rows are skipped
-    (differences are taken within runs of valid samples only), components are pooled."""
-    Y = np.asarray(y, dtype=np.float64)
-    if Y.ndim == 1:
-        Y = Y[:, None]
-    d = Y
-    for _ in range(order + 1):
-        d = np.diff(d, axis=0)
-    d = d[np.isfinite(d).all(axis=1)].ravel()
-    if d.size == 0:
-        return 0.0
-    return float(np.median(np.abs(d - np.median(d))) / 0.6745 / math.sqrt(comb(2 * (order + 1), order + 1)))
-
-
-def auto_penalty(y: np.ndarray, order: int = 2) -> float:
-    """``K`` from the noise level: ``K = σ̂·(O + 1 + 2·ln n)/√n``.
-
-    A knot placed in pure noise lowers the SSR by about ``σ²·(O + 1 + 2 ln n)`` (the ``O + 1`` extra
-    coefficients plus the best of ~n positions), i.e. ``sqrt(SSR) ≈ σ√n`` by about
-    ``σ (O + 1 + 2 ln n)/(2√n)``; ``K`` is twice that, so noise alone does not buy knots while a real
-    discontinuity (which lowers the SSR by far more) does.
-    """
-    Y = np.asarray(y, dtype=np.float64)
-    n = int(np.isfinite(Y.reshape(Y.shape[0], -1)).all(axis=1).sum())
-    sigma = noise_sigma(Y, order)
-    if n < 2 or sigma == 0.0:
-        return 0.0
-    return sigma * (order + 1 + 2 * math.log(n)) / math.sqrt(n)
 
 
 @dataclass(frozen=True)
@@ -52,11 +19,12 @@ class FilterResult:
     """Pieces of every gap-free part of a signal (a long NaN gap ends a part)."""
 
     parts: tuple[PiecewisePolynomial, ...]
-    penalty: float
+    penalty: float  # K of Eq. 2 (automatic mode: the K with the same trade-off as knot_cost)
     order: int
     solver: str
-    iterative_loss: float  # the iterative algorithm's loss (sum over parts), for the gap to the optimum
+    iterative_loss: float | None  # the iterative algorithm's loss (sum over parts); None in automatic mode
     unfitted: tuple[tuple[float, float], ...] = ()  # time ranges of parts too short to fit (NaN out)
+    knot_cost: float | None = None  # automatic mode: λ of SSR + λ·N_k (squared signal units)
 
     @property
     def loss(self) -> float:
@@ -106,10 +74,14 @@ def fit(t, y, order: int = 2, penalty: float | None = None, solver: str = "exact
     Parameters
     ----------
     penalty
-        ``K`` of Eq. 2 (signal units); ``None`` chooses :func:`auto_penalty`.
+        ``K`` of Eq. 2 (signal units). ``None``: automatic mode — the knot cost λ of the additive
+        loss ``SSR + λ·N_k`` is chosen by :func:`mocapkit.filters.penalty.choose_knot_cost` (the
+        segmentation whose weakest knot gains most relative to the long-run variance of its
+        residual; independent of the recording's length) and that loss is minimised exactly
+        (``solver`` is then ``"auto"``; ``penalty`` of the result is the equivalent ``K``).
     solver
         ``"iterative"`` (the seed's local algorithm) or ``"exact"`` (global optimum, seeded with the
-        iterative result so it is never worse).
+        iterative result so it is never worse); ignored in automatic mode.
     max_gap
         NaN gaps longer than this (seconds) cut the signal into independently filtered parts;
         default 10 median sample intervals.
@@ -119,20 +91,31 @@ def fit(t, y, order: int = 2, penalty: float | None = None, solver: str = "exact
         raise InvalidParameterError(f"solver must be 'iterative' or 'exact', got {solver!r}")
     if max_gap is None:
         max_gap = 10.0 * float(np.median(np.diff(t))) if t.shape[0] > 1 else 1.0
-    K = auto_penalty(Y, order) if penalty is None else float(penalty)
-    parts = []
+    if penalty is not None and not (float(penalty) >= 0 and math.isfinite(float(penalty))):
+        raise InvalidParameterError(f"the penalty must be a finite number >= 0, got {penalty!r}")
+    ranges = []
     unfitted = []
-    it_loss = 0.0
     for a, b in split_at_gaps(t, Y, max_gap):
         if int((~np.isnan(Y[a:b]).any(axis=1)).sum()) < order + 1:
             unfitted.append((float(t[a]), float(t[b - 1])))  # too few samples: NaN in evaluate, reported
-            continue
+        else:
+            ranges.append((a, b))
+    if not ranges:
+        raise InvalidParameterError(f"no part of the signal has {order + 1} consecutive valid samples")
+    if penalty is None:
+        ch = choose_knot_cost([(t[a:b], Y[a:b]) for a, b in ranges], order)
+        K = ch.penalty
+        parts = [_shift(PiecewisePolynomial(s.knots, s.pieces, s.order, s.ssr, K), a)
+                 for s, (a, _) in zip(ch.solutions, ranges)]
+        return FilterResult(tuple(parts), K, order, "auto", None, tuple(unfitted), ch.knot_cost)
+    K = float(penalty)
+    parts = []
+    it_loss = 0.0
+    for a, b in ranges:
         it, _ = fit_iterative(t[a:b], Y[a:b], order, K, init_chunk=init_chunk)
         it_loss += it.loss
         res = solve_exact(t[a:b], Y[a:b], order, K, incumbent=it) if solver == "exact" else it
         parts.append(_shift(res, a))
-    if not parts:
-        raise InvalidParameterError(f"no part of the signal has {order + 1} consecutive valid samples")
     return FilterResult(tuple(parts), K, order, solver, it_loss, tuple(unfitted))
 
 

@@ -10,8 +10,9 @@ Two file formats are read:
   giving the 1-based end frame ``b`` of each segment and the annotators' uncertainty ``a..c``);
 * :func:`read_frame_labels` — the mocap6 format (one integer action id per block of 12 frames).
 
-:func:`labels_from_frames` builds a :class:`Reference` from a per-frame label array (synthetic data,
-tests).
+:func:`read_reference` tells the two apart and checks the file against the take (call it before any
+long computation). :func:`labels_from_frames` builds a :class:`Reference` from a per-frame label
+array (synthetic data, tests).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ __all__ = [
     "labels_from_frames",
     "read_frame_labels",
     "read_haca_labels",
+    "read_reference",
 ]
 
 #: Action names of the mocap6 label files (CMU subjects 13 and 14), by action id.
@@ -74,6 +76,9 @@ class Reference:
         Frame rate of the take, in Hz (``> 0``).
     source
         Where the segmentation came from (a file path or a short description).
+    warnings
+        What the reader accepted but the caller should show (e.g. one label block more or less than
+        the take needs); readers never print.
 
     Raises
     ------
@@ -88,6 +93,7 @@ class Reference:
     labels: tuple[str, ...]
     rate_hz: float = 120.0
     source: str = ""
+    warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         n = self.n_frames
@@ -128,6 +134,7 @@ class Reference:
         object.__setattr__(self, "labels", labels)
         object.__setattr__(self, "rate_hz", rate)
         object.__setattr__(self, "source", str(self.source))
+        object.__setattr__(self, "warnings", tuple(str(w) for w in self.warnings))
 
     @property
     def n_segments(self) -> int:
@@ -307,8 +314,10 @@ def read_frame_labels(
     Format: whitespace-separated integer action ids over any number of lines. Label ``k``
     (0-based) covers the 1-based frames ``frames_per_label*k + 1 .. frames_per_label*(k+1)``, i.e.
     the 0-based frames ``frames_per_label*k .. frames_per_label*(k+1) - 1``; the last label may
-    cover a partial block. The file must hold exactly ``ceil(n_frames / frames_per_label)``
-    labels.
+    cover a partial block. The file should hold exactly ``ceil(n_frames / frames_per_label)``
+    labels; one label more (the last is ignored) or one less (the last label is extended over the
+    remaining frames) is accepted with a message in :attr:`Reference.warnings` — exporters round
+    the frame count up or down.
 
     A cut is placed at the 0-based frame ``frames_per_label*k`` wherever label ``k`` differs from
     label ``k - 1``. The files give no annotator tolerance, so every interval is ``[cut, cut]``;
@@ -336,9 +345,9 @@ def read_frame_labels(
     Raises
     ------
     MocapFormatError
-        A non-integer token (with the file and 1-based line), or a label count different from
-        ``ceil(n_frames / frames_per_label)`` (with the file, line ``None``, the expected and the
-        found counts).
+        A non-integer token (with the file and 1-based line), or a label count that differs from
+        ``ceil(n_frames / frames_per_label)`` by more than one (with the file, line ``None``, the
+        expected and the found counts).
     InvalidParameterError
         If ``n_frames``, ``frames_per_label`` or ``rate_hz`` is out of its domain.
     """
@@ -351,7 +360,15 @@ def read_frame_labels(
     for ln, raw in enumerate(lines, start=1):
         ids.extend(_parse_int(src, ln, tok, "a label") for tok in raw.split())
     expected = -(-n // block)
-    if len(ids) != expected:
+    warn: list[str] = []
+    if len(ids) == expected + 1:
+        warn.append(f"{src}: {len(ids)} labels for {n} frames (expected ceil({n} / {block}) = {expected}): "
+                    f"the last label is ignored")
+        ids = ids[:expected]
+    elif len(ids) == expected - 1 and ids:
+        warn.append(f"{src}: {len(ids)} labels for {n} frames (expected ceil({n} / {block}) = {expected}): "
+                    f"the last label also covers the last {n - block * len(ids)} frames")
+    elif len(ids) != expected:
         raise MocapFormatError(
             src,
             None,
@@ -369,7 +386,24 @@ def read_frame_labels(
         labels=labels,
         rate_hz=rate,
         source=src,
+        warnings=tuple(warn),
     )
+
+
+def read_reference(path: str | Path, n_frames: int, rate_hz: float = 120.0) -> Reference:
+    """A label file of either format, checked against the take (``n_frames`` at ``rate_hz``).
+
+    HACA (:func:`read_haca_labels`) when a line after the first holds a token that is not an
+    integer (the label names); otherwise per-frame block labels (:func:`read_frame_labels`) at
+    10 Hz, i.e. ``round(rate_hz / 10)`` frames per label (12 at 120 Hz, as in mocap6).
+    """
+    rate = _check_rate(rate_hz)
+    src, lines = _read_lines(path)
+    rows = [ln.split() for ln in lines if ln.strip()]
+    haca = any(not tok.lstrip("-").isdigit() for ln in rows[1:] for tok in ln)
+    if haca:
+        return read_haca_labels(path, n_frames=n_frames, rate_hz=rate)
+    return read_frame_labels(path, n_frames=n_frames, frames_per_label=max(1, int(round(rate / 10.0))), rate_hz=rate)
 
 
 def labels_from_frames(
