@@ -181,3 +181,47 @@ def test_load_returns_the_model_object_of_each_kind(tests_data, bvh):
     assert set(sig) == {"pelvis", "left-foot"} and all(isinstance(s, mocapkit.Signal) for s in sig.values())
     with pytest.raises(TypeError):
         mocapkit.load(bvh, asf_typo=1)
+
+
+def test_read_gltf_fuzz_raises_only_format_errors(bvh, tmp_path):
+    """Random edits of a valid clip's JSON (wrong types, lengths, indices, huge numbers) either decode
+    or raise MocapFormatError / InvalidParameterError; nothing else escapes (no traceback in the CLI)."""
+    import random
+
+    comp = compress_motion(read_bvh(bvh), "fastsw", threshold=1e-3)
+    base = json.loads(write_gltf(tmp_path / "c.gltf", comp).read_text())
+    rng = random.Random(7)
+    junk = [None, -1, 0, 1, 2.5, 1e300, -1e9, "x", [], [1], [1, 2], [0, 0, 0, 0, 0], {}, {"a": 1}, True]
+
+    def paths(node, prefix=()):
+        yield prefix
+        if isinstance(node, dict):
+            for k, v in node.items():
+                if k != "uri":  # keep the buffer itself; its content is tested by the accessor checks
+                    yield from paths(v, prefix + (k,))
+        elif isinstance(node, list):
+            for i, v in enumerate(node[:6]):
+                yield from paths(v, prefix + (i,))
+
+    all_paths = [p for p in paths(base) if p]
+    outcomes = {"decoded": 0, "refused": 0}
+    for trial in range(300):
+        doc = json.loads(json.dumps(base))
+        for _ in range(rng.randint(1, 3)):
+            path = rng.choice(all_paths)
+            parent = doc
+            try:
+                for k in path[:-1]:
+                    parent = parent[k]
+                parent[path[-1]] = rng.choice(junk)
+            except (KeyError, IndexError, TypeError):
+                continue
+        f = tmp_path / f"m{trial}.gltf"
+        f.write_text(json.dumps(doc))
+        try:
+            m = read_gltf(f)
+            assert np.all(np.isfinite(m.rotations)) and np.all(np.isfinite(m.times)), f"non-finite decode {trial}"
+            outcomes["decoded"] += 1
+        except (MocapFormatError, mocapkit.InvalidParameterError):
+            outcomes["refused"] += 1
+    assert outcomes["refused"] > 50 and outcomes["decoded"] > 0, outcomes

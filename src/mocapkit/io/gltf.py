@@ -29,6 +29,7 @@ from mocapkit.quat import hemisphere_continuous, normalize, slerp
 from mocapkit.skeleton import Motion, Skeleton
 
 EXTRAS_KEY = "mocapkit"
+MAX_VALUES = 20_000_000  # joint-frames decoded at most (~1.1 GB as float64 rotations + translations)
 
 
 class _Blob:
@@ -174,8 +175,14 @@ def _load(path: Path) -> tuple[g.GLTF2, bytes]:
     return gl, blob
 
 
+def _acc_view(acc: g.Accessor) -> int:
+    return -1 if acc.bufferView is None else int(acc.bufferView)
+
+
 def _accessor(gl: g.GLTF2, blob: bytes, i: int, src: str) -> np.ndarray:
     try:
+        if not (0 <= i < len(gl.accessors)) or not (0 <= _acc_view(gl.accessors[i]) < len(gl.bufferViews)):
+            raise IndexError(i)
         acc = gl.accessors[i]
         view = gl.bufferViews[acc.bufferView]
         n = _N_COMP[acc.type]
@@ -222,6 +229,29 @@ def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
     p = Path(path)
     src = str(p)
     gl, blob = _load(p)
+    try:
+        return _decode(gl, blob, src, rate)
+    except (MocapFormatError, InvalidParameterError):
+        raise
+    except (ValueError, IndexError, KeyError, TypeError, AttributeError, OverflowError) as exc:
+        # a structure pygltflib accepted but that is not a consistent animation (wrong lengths, types)
+        raise MocapFormatError(src, None, f"malformed glTF content ({type(exc).__name__}: {exc})") from None
+
+
+def _unit_like(q: np.ndarray) -> bool:
+    """Quaternions whose norm is 1 up to float32 storage and writer rounding (glTF requires unit ones)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        n = np.linalg.norm(q, axis=-1)
+    return bool(np.all(np.abs(n - 1.0) < 1e-3))
+
+
+def _check_size(n_frames: int, n_joints: int, src: str) -> None:
+    if n_frames < 1 or n_frames * n_joints > MAX_VALUES:
+        raise MocapFormatError(src, None, f"{n_frames} frames × {n_joints} joints is not a clip this reader decodes "
+                               f"(at least 1 frame, at most {MAX_VALUES:,} joint-frames)")
+
+
+def _decode(gl: g.GLTF2, blob: bytes, src: str, rate: float | None) -> Motion:
     if not gl.nodes:
         raise MocapFormatError(src, None, "no nodes: not a skeletal glTF file")
     anim = gl.animations[0] if gl.animations else None
@@ -252,19 +282,23 @@ def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
 
     def vec(v, default):
         a = np.asarray(v if v is not None else default, dtype=np.float64)
+        if a.shape != (len(default),):
+            raise MocapFormatError(src, None, f"a node vector has {a.size} numbers, expected {len(default)}")
         if not np.all(np.isfinite(a)):
             raise MocapFormatError(src, None, "a node holds NaN or infinite values")
         return a
 
     rest_t = np.array([vec(gl.nodes[o].translation, [0, 0, 0]) / unit_m for o in order])
     rest_q = np.array([vec(gl.nodes[o].rotation, [0, 0, 0, 1])[[3, 0, 1, 2]] for o in order])
-    if np.any(np.linalg.norm(rest_q, axis=1) == 0):
-        raise MocapFormatError(src, None, "a node has a zero rotation quaternion")
+    if not _unit_like(rest_q):
+        raise MocapFormatError(src, None, "a node rotation is not a unit quaternion (glTF requires one)")
     tracks: dict[tuple[int, str], tuple[np.ndarray, np.ndarray]] = {}
     for ch in (anim.channels if anim is not None else []):
         node, kind = ch.target.node, ch.target.path
         if kind not in ("rotation", "translation") or node is None or node not in new:
             continue
+        if not (isinstance(ch.sampler, int) and 0 <= ch.sampler < len(anim.samplers)):
+            raise MocapFormatError(src, None, f"a channel names sampler {ch.sampler!r}, which does not exist")
         smp = anim.samplers[ch.sampler]
         if (smp.interpolation or "LINEAR") != "LINEAR":
             raise MocapFormatError(src, None, f"sampler {ch.sampler}: only LINEAR interpolation is read, got {smp.interpolation}")
@@ -274,8 +308,8 @@ def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
             raise MocapFormatError(src, None, f"sampler {ch.sampler}: key times must increase and match the values")
         if kind == "rotation":
             kv = kv[:, [3, 0, 1, 2]]
-            if np.any(np.linalg.norm(kv, axis=1) == 0):
-                raise MocapFormatError(src, None, f"sampler {ch.sampler}: zero rotation quaternion")
+            if not _unit_like(kv):
+                raise MocapFormatError(src, None, f"sampler {ch.sampler}: a key is not a unit quaternion")
         else:
             kv = kv / unit_m
         tracks[(new[node], kind)] = (kt, kv)
@@ -283,6 +317,9 @@ def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
         if rate is not None:
             raise InvalidParameterError(f"{src} records its own frame times; do not give a rate")
         ft, n = float(extras["frame_time"]), int(extras["n_frames"])
+        _check_size(n, n_nodes, src)
+        if not (math.isfinite(ft) and ft > 0):
+            raise MocapFormatError(src, None, f"extras frame_time {ft!r} is not a positive number")
         times = float(extras.get("t0", 0.0)) + ft * np.arange(n)
     else:
         if rate is None:
@@ -292,7 +329,9 @@ def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
         t0 = min(float(kt[0]) for kt, _ in tracks.values())
         t1 = max(float(kt[-1]) for kt, _ in tracks.values())
         ft = 1.0 / float(rate)
-        times = t0 + ft * np.arange(int(math.floor((t1 - t0) / ft + 1e-9)) + 1)
+        n = int(math.floor((t1 - t0) / ft + 1e-9)) + 1
+        _check_size(n, n_nodes, src)
+        times = t0 + ft * np.arange(n)
     J, N = n_nodes, len(times)
     rot = np.broadcast_to(normalize(rest_q)[None], (N, J, 4)).copy()
     trans = np.broadcast_to(rest_t[None], (N, J, 3)).copy()
