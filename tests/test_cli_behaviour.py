@@ -225,3 +225,83 @@ def test_read_gltf_fuzz_raises_only_format_errors(bvh, tmp_path):
         except (MocapFormatError, mocapkit.InvalidParameterError):
             outcomes["refused"] += 1
     assert outcomes["refused"] > 50 and outcomes["decoded"] > 0, outcomes
+
+
+# ------------------------------------------------------------------------------------------------
+# findings of a newcomer's trial on the shared files
+# ------------------------------------------------------------------------------------------------
+
+def _markers_with_a_lost_one(tmp_path) -> Path:
+    """A C3D with 3 markers (one never seen) and 2 analog channels."""
+    from mocapkit.io.loaders import write_markers
+
+    rng = np.random.default_rng(3)
+    n = 200
+    t = np.arange(n) / 100.0
+    pos = np.stack([np.column_stack([t * 100, np.zeros(n), 500 - 490 * t ** 2]) + rng.normal(0, 0.2, (n, 3)),
+                    np.full((n, 3), np.nan),
+                    np.column_stack([np.full(n, 10.0), np.full(n, 20.0), np.full(n, 30.0)])], axis=1)
+    analog = {"labels": ("F1", "F2"), "rate": 1000.0, "values": rng.normal(size=(n * 10, 2))}
+    path = tmp_path / "lost.c3d"
+    write_markers(mocapkit.Markers(t, pos, ("ball", "lost", "base"), 100.0, units="mm", analog=analog), path)
+    return path
+
+
+def test_filter_keeps_every_marker_and_analog_and_reports_a_lost_marker(tmp_path):
+    src = _markers_with_a_lost_one(tmp_path)
+    out = tmp_path / "f.c3d"
+    r = run("filter", src, "--penalty", "5", "--markers", "ball,lost", "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert "lost: not filtered" in r.stderr and "1 copied unfiltered" in r.stderr
+    a, b = mocapkit.load(src), mocapkit.load(out)
+    assert b.labels == a.labels
+    assert np.allclose(b.positions[:, 2], a.positions[:, 2], atol=1e-4)  # 'base' copied as it was
+    assert np.isnan(b.positions[:, 1]).all()
+    assert not np.allclose(b.positions[:, 0], a.positions[:, 0], atol=1e-3)  # 'ball' was filtered...
+    assert np.abs(b.positions[:, 0] - a.positions[:, 0]).max() < 2.0  # ...and stays near the data
+    assert b.analog is not None and b.analog["labels"] == ("F1", "F2")
+    assert np.allclose(b.analog["values"], a.analog["values"], atol=1e-5)
+
+
+def test_filter_refuses_before_work(tmp_path, tests_data):
+    tsv = tests_data / "markers" / "juggling-qualisys-300hz-first120.tsv"
+    r = run("filter", tsv, "--penalty", "100", "-o", tmp_path / "x.bvh")
+    assert r.returncode == 2 and ".csv, or .c3d/.trc" in r.stderr
+    r = run("filter", tsv, "--penalty", "100", "--columns", "base_1_x")
+    assert r.returncode == 2 and "--markers" in r.stderr
+    r = run("filter", tests_data / "bvh" / "walk-meredith-60.bvh", "--auto")
+    assert r.returncode == 2 and "filter reads marker files" in r.stderr
+
+
+def test_compress_output_must_match_what_is_written(tests_data, tmp_path):
+    pelvis = tests_data / "xio" / "pelvis" / "Quaternion.csv"
+    r = run("compress", pelvis, "-t", "1e-3", "-o", tmp_path / "p.glb")
+    assert r.returncode == 2 and not (tmp_path / "p.glb").exists()
+    r = run("compress", tests_data / "xio", "-t", "1e-3", "-o", tmp_path / "all.csv")
+    assert r.returncode == 2 and not (tmp_path / "all.csv").exists()
+    r = run("compress", tests_data / "xio", "-t", "1e-3", "-o", tmp_path / "missing" / "deeper" / "out")
+    assert r.returncode == 2 and not (tmp_path / "missing").exists()
+
+
+def test_stream_max_angle_defaults_to_the_guaranteed_method(tests_data):
+    src = (tests_data / "xio" / "pelvis" / "Quaternion.csv").read_text()
+    r = subprocess.run([*EXE, "stream", "--max-angle", "1"], input=src, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    r2 = subprocess.run([*EXE, "stream", "--max-angle", "1", "-m", "anglesw"], input=src, capture_output=True,
+                        text=True, timeout=300)
+    assert r.stdout == r2.stdout and r.stdout.count("\n") > 2
+
+
+def test_decompress_refuses_a_recording(tests_data, tmp_path):
+    r = run("decompress", tests_data / "bvh" / "walk-meredith-60.bvh", "-o", tmp_path / "x.bvh")
+    assert r.returncode == 2 and "compressed clip" in r.stderr
+
+
+def test_joint_roles_ignore_a_rig_namespace():
+    from mocapkit.segment.features import ROLES, resolve_joint_map
+
+    names = ["mixamorig:Hips", "mixamorig:Spine", "mixamorig:Neck", "mixamorig:Head",
+             *[f"mixamorig:{s}{p}" for s in ("Left", "Right") for p in ("UpLeg", "Leg", "Foot", "Arm", "ForeArm", "Hand")]]
+    jm = resolve_joint_map(names)
+    assert set(jm) == set(ROLES) and all(v.startswith("mixamorig:") for v in jm.values())
+    assert jm["root"] == "mixamorig:Hips"

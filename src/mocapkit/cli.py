@@ -126,6 +126,10 @@ MaxLenOpt = Annotated[
 ]
 
 
+FILE_SUFFIXES = (".csv", ".txt", ".tsv", ".json", ".bvh", ".amc", ".glb", ".gltf", ".c3d", ".trc", ".mot", ".sto",
+                 ".png", ".parquet")
+
+
 def _check_output(path: Optional[Path], folder: bool = False) -> None:
     """Refuse an output path that cannot be written before any work is done (named as given)."""
     import os
@@ -141,8 +145,6 @@ def _check_output(path: Optional[Path], folder: bool = False) -> None:
             raise InvalidParameterError(f"{path}: is a folder; give a file name")
         parent = path.parent
     parent = parent if str(parent) else Path(".")
-    while folder and not parent.exists() and parent != parent.parent:
-        parent = parent.parent  # a new output folder is created: its nearest existing ancestor must be writable
     if not parent.is_dir():
         raise InvalidParameterError(f"{path}: the folder {parent} does not exist")
     if not os.access(parent, os.W_OK | os.X_OK):
@@ -229,7 +231,7 @@ def compress(
 
     if stats_only and output is not None:
         raise InvalidParameterError("--stats-only writes nothing: drop it or drop --output")
-    _check_output(output, folder=input.is_dir())
+    _check_output(output, folder=input.is_dir() or (output is not None and output.is_dir()))
     if kind_of(input) == "skeletal":
         if output is None and not (as_json or stats_only):
             raise InvalidParameterError(
@@ -253,6 +255,11 @@ def compress(
         raise InvalidParameterError(
             f"{input} is {what}: give -o FOLDER to keep the segment points (one CSV per sensor), "
             "or --json / --stats-only to print only the numbers")
+    if output is not None and folder_mode and output.suffix.lower() in FILE_SUFFIXES:
+        raise InvalidParameterError(f"{output}: INPUT is {what}, so --output is a folder (one CSV per sensor), "
+                                    f"not a {output.suffix} file")
+    if output is not None and not folder_mode and output.suffix.lower() != ".csv":
+        raise InvalidParameterError(f"{output}: segment points are written as .csv")
     points_to_stdout = output is None and not folder_mode and not as_json and not stats_only
     mode, target = (
         ("threshold", threshold) if threshold is not None
@@ -275,7 +282,7 @@ def compress(
         if output is not None:
             dest = output / f"{name}.csv" if folder_mode else output
             if folder_mode:
-                output.mkdir(parents=True, exist_ok=True)
+                output.mkdir(exist_ok=True)  # one new level; its parent was checked before any work
             write_signal_csv(dest, comp.times, comp.values)
         elif points_to_stdout:
             sys.stdout.write("time,w,x,y,z\n")
@@ -417,7 +424,8 @@ def _fmt(v) -> str:
 
 def _print_info(rec: dict) -> None:
     """``info``'s record as tables on stdout: the file's fields, then one row per signal."""
-    tab = Table(title=rec.get("file"))
+    title = str(rec.get("file"))
+    tab = Table(title=title, min_width=len(title) + 4)  # the path is never wrapped
     tab.add_column("field")
     tab.add_column("value")
     nested = {}
@@ -541,6 +549,9 @@ def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
         from mocapkit.io.vicon_csv import is_vicon_csv
 
         is_markers = is_vicon_csv(input)  # --columns reads a wide marker CSV as plain columns
+    if is_markers and columns is not None:
+        raise InvalidParameterError(f"{input} is a marker file: choose markers with --markers NAME[:xyz],... "
+                                    "(--columns is for plain CSV files)")
     if is_markers:
         from mocapkit.markers import load_markers
 
@@ -560,6 +571,9 @@ def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
         return out
     if markers is not None:
         raise InvalidParameterError(f"{input}: --markers needs a C3D, Qualisys TSV or marker CSV file")
+    if kind_of(input) not in ("imu", "table") or input.suffix.lower() not in (".csv", ".txt"):
+        raise InvalidParameterError(f"{input}: filter reads marker files (C3D, TSV, TRC, marker CSV) or a CSV "
+                                    "with a time column; for skeletal motion, convert it or segment it")
     # a plain CSV with a header: a time column (first) and named columns
     lines = input.read_text(encoding="utf-8").splitlines()
     if not lines:
@@ -617,40 +631,61 @@ def filter_cmd(
         raise InvalidParameterError("--order must be >= 0")
     _check_output(output)
     _check_output(plot)
-    marker_out = output is not None and output.suffix.lower() in (".c3d", ".trc")
+    suffix = None if output is None else output.suffix.lower()
+    if suffix not in (None, ".csv", ".c3d", ".trc"):
+        raise InvalidParameterError(f"{output}: filter writes .csv, or .c3d/.trc for a marker file")
+    marker_out = suffix in (".c3d", ".trc")
     if marker_out:
         from mocapkit.io.loaders import kind_of
 
         if kind_of(input) != "markers" or columns is not None:
             raise InvalidParameterError(f"{output}: a .c3d/.trc output needs a marker file as input")
     signals = _filter_inputs(input, markers, columns)
+    if marker_out and any(comps != [f"{c[:-2]}_x", f"{c[:-2]}_y", f"{c[:-2]}_z"] for (_, _, _, comps) in signals
+                          for c in comps[:1]):
+        raise InvalidParameterError(f"{output}: a .c3d/.trc output needs whole markers (x, y, z), not components")
     results = []
     with _progress(f"filtering {input.name}", total=len(signals)) as update:
         for i, (name, t, Y, comps) in enumerate(signals):
-            results.append((name, t, Y, comps, fit(t, Y, order, penalty, solver.value)))
+            try:
+                r = fit(t, Y, order, penalty, solver.value)
+            except InvalidParameterError as e:  # e.g. a marker that is (almost) never seen: report, go on
+                err.print(f"warning: {name}: not filtered ({e}); written as missing")
+                r = None
+            results.append((name, t, Y, comps, r))
             update(i + 1)
+    if all(r is None for *_, r in results):
+        raise InvalidParameterError(f"{input}: no signal could be filtered (see the warnings above)")
     for name, t, Y, comps, r in results:
-        for a, b in r.unfitted:
+        for a, b in (r.unfitted if r is not None else []):
             err.print(f"warning: {name}: samples at {a:g}..{b:g} s lie between long gaps and are too few to "
                       f"fit with order {order}: left out (NaN in the output)")
+
+    def filtered(t, Y, r) -> np.ndarray:
+        return np.full(Y.shape, np.nan) if r is None else np.asarray(r.evaluate(t)).reshape(Y.shape)
+
     if marker_out:
-        # filtered marker positions with the input's labels, rate and units; missing samples stay missing
+        # the input's markers with the filtered ones replaced; labels, rate, units, gaps and analog kept
         from mocapkit.io.loaders import load_markers, write_markers
         from mocapkit.markers import Markers
 
-        labels = [comps[0][:-2] for (_, _, _, comps, _) in results]
-        if any(comps != [f"{lab}_x", f"{lab}_y", f"{lab}_z"] for lab, (_, _, _, comps, _) in zip(labels, results)):
-            raise InvalidParameterError(f"{output}: a .c3d/.trc output needs whole markers (x, y, z), not components")
         mk = load_markers(input)
-        pos = np.stack([np.where(np.isnan(Y), np.nan, np.asarray(r.evaluate(t)).reshape(Y.shape))
-                        for (_, t, Y, _, r) in results], axis=1)
-        write_markers(Markers(mk.times, pos, labels, mk.rate, units=mk.units, source=str(output),
-                              meta={"filtered_from": str(input)}), output, analog=False)
+        pos = np.array(mk.positions)
+        done = []
+        for name, t, Y, comps, r in results:
+            j = mk.labels.index(comps[0][:-2])
+            pos[:, j] = np.where(np.isnan(Y), np.nan, filtered(t, Y, r))
+            done.append(j)
+        write_markers(Markers(mk.times, pos, mk.labels, mk.rate, units=mk.units, analog=mk.analog,
+                              source=str(output), meta={"filtered_from": str(input)}), output)
+        kept = len(mk.labels) - len(set(done))
+        if kept:
+            err.print(f"{output}: {len(set(done))} markers filtered, {kept} copied unfiltered")
     elif output is not None:
         from mocapkit.io.atomic import atomic_write_text
 
         t = results[0][1]
-        cols = [r.evaluate(t) for (_, tt, _, _, r) in results]
+        cols = [filtered(tt, Y, r) for (_, tt, Y, _, r) in results]
         head = ["time"] + [c for (_, _, _, comps, _) in results for c in comps]
         body = np.column_stack([t] + cols)
         atomic_write_text(output, ",".join(head) + "\n" + "\n".join(",".join(repr(float(v)) for v in row) for row in body) + "\n")
@@ -658,6 +693,9 @@ def filter_cmd(
         recs = []
         for name, t, Y, comps, r in results:
             D = Y.shape[1]
+            if r is None:
+                recs.append({"name": name, "components": comps, "order": order, "error": "not filtered"})
+                continue
             recs.append({
                 "name": name, "components": comps, "order": order, "penalty": r.penalty, "solver": r.solver,
                 "loss": r.loss, "iterative_loss": r.iterative_loss, "knot_cost": r.knot_cost, "n_knots": r.n_knots,
@@ -672,13 +710,16 @@ def filter_cmd(
         for c in ("signal", "K", "knots", "pieces", "loss", "iterative loss"):
             tab.add_column(c, justify="right")
         for name, t, Y, comps, r in results:
+            if r is None:
+                tab.add_row(name, "–", "not filtered", "", "", "")
+                continue
             tab.add_row(name, f"{r.penalty:.4g}", str(r.n_knots), str(len(r.pieces)), f"{r.loss:.6g}",
                         "–" if r.iterative_loss is None else f"{r.iterative_loss:.6g}")
         console.print(tab)
     if plot is not None:
         from mocapkit.plot import plot_ppa
 
-        name, t, Y, comps, r = results[0]
+        name, t, Y, comps, r = next(x for x in results if x[4] is not None)
         plot_ppa(t, Y[:, -1], r, plot, title=f"{input.name}: {comps[-1]}")
 
 
@@ -773,6 +814,11 @@ def decompress(
     if points.suffix.lower() in (".glb", ".gltf"):
         _decompress_clip(points, output, times_from, rate)
         return
+    from mocapkit.io.loaders import kind_of
+
+    if kind_of(points) != "imu":
+        raise InvalidParameterError(f"{points}: decompress reads segment points (CSV time,w,x,y,z) or a "
+                                    "compressed clip (.glb/.gltf), not a full recording")
 
     from mocapkit.io import load_signals, read_imu_csv, write_signal_csv
     from mocapkit.pla.decode import reconstruct_points
@@ -785,7 +831,9 @@ def decompress(
         originals = load_signals(times_from, rate=rate,
                                  **_columns(time_column, quaternion_columns, scalar_last, time_unit))
         if len(originals) != 1:
-            raise InvalidParameterError(f"{times_from}: expected one signal, found {len(originals)}")
+            raise InvalidParameterError(
+                f"{times_from} holds {len(originals)} signals ({', '.join(list(originals)[:6])}): pick the one the "
+                "points came from with --quaternion-columns (e.g. its W,X,Y,Z column names)")
         t = next(iter(originals.values())).times
     else:
         if not (math.isfinite(rate) and rate > 0):
@@ -820,7 +868,9 @@ def _decompress_clip(clip: Path, output: Path, times_from: Optional[Path], rate:
 
 @app.command()
 def stream(
-    method: MethodOpt = Method.fastsw,
+    method: Annotated[
+        Optional[Method], typer.Option("--method", "-m", help="PLA method (default: fastsw, or anglesw with --max-angle).")
+    ] = None,
     threshold: ThresholdOpt = None,
     max_angle: MaxAngleOpt = None,
     max_segment_length: MaxLenOpt = None,
@@ -836,7 +886,7 @@ def stream(
 
     if (threshold is None) == (max_angle is None):
         raise InvalidParameterError("give exactly one of --threshold or --max-angle (a target ICR needs the whole signal)")
-    m = method.value
+    m = method.value if method is not None else ("anglesw" if max_angle is not None else "fastsw")
     if m == "optimal":
         raise InvalidParameterError("method 'optimal' is offline (it needs the whole signal); stream with anglesw")
     if max_angle is not None:

@@ -76,12 +76,17 @@ LIMB_PARTS = ((0, 1), (2, 3), (4, 5), (6, 7))
 def resolve_joint_map(names, overrides: dict[str, str] | None = None) -> dict[str, str]:
     """Role → joint name for a skeleton with joint ``names``.
 
-    Each role takes the first of :data:`JOINT_CANDIDATES` present (case-insensitive); ``overrides``
+    Each role takes the first of :data:`JOINT_CANDIDATES` present (case-insensitive, ignoring a
+    ``namespace:`` prefix such as Mixamo's ``mixamorig:``); ``overrides``
     (role → exact joint name) wins. Raises :class:`InvalidParameterError` naming every role that
     could not be found, the names tried and the skeleton's joints.
     """
     names = tuple(names)
     lower = {n.lower(): n for n in names}
+    for n in names:  # a rig namespace ("mixamorig:Hips", "Subject:RightUpLeg") matches the bare name too
+        bare = n.rpartition(":")[2].lower()
+        if bare and bare not in lower:
+            lower[bare] = n
     overrides = dict(overrides or {})
     unknown = set(overrides) - set(ROLES)
     if unknown:
