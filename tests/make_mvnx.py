@@ -1,10 +1,10 @@
 """Write an Xsens MVNX (version 4 layout) file from a CMU ASF/AMC take mapped onto the 23 MVN segments.
 
-Used to make ``tests/data/mvnx/86_01_xsens_first60.mvnx`` (no MVNX recording is available to the
+Used to make ``tests/data/mvnx/86_01_xsens_60hz.mvnx`` (no MVNX recording is available to the
 project) and, inside the tests, longer or "soft body" variants::
 
     python tests/make_mvnx.py tests/data/cmu/86.asf tests/data/cmu/86_01_first60.amc \
-        tests/data/mvnx/86_01_xsens_first60.mvnx --rate 120
+        tests/data/mvnx/86_01_xsens_60hz.mvnx --rate 120 --stride 2
 
 Mapping (CMU world: X left, Y up, Z forward -> MVN global: X forward, Y left, Z up; lengths in
 metres from the ASF unit): every MVN segment takes the local rotation of a CMU bone, conjugated by

@@ -384,3 +384,46 @@ def test_cli_filter_c3d_labels_with_colons(shared_data, tmp_path):
     assert recs[0]["components"] == ["Daphnee:ASISr_x", "Daphnee:ASISr_y", "Daphnee:ASISr_z"]
     assert recs[1]["components"] == ["Daphnee:ASISr_z"]
     assert len(recs[0]["pieces"][0]["coeffs"]) == 3  # one polynomial per component, shared knots
+
+
+def _levels(levels, n=300):
+    """Noise-free thirds at the given levels (equal steps up, or a pulse): both knots gain exactly
+    the same, so at the lower end λ0 of k = 0's range the 2-knot fit ties with no knot."""
+    i = np.arange(n)
+    return i / 100.0, np.asarray(levels, dtype=float)[np.minimum(3 * i // n, 2)]
+
+
+@pytest.mark.filterwarnings("error")
+def test_auto_noise_free_piecewise_parabola_gets_its_true_knots_without_warning():
+    t = np.arange(300) / 100.0
+    tau = t - np.floor(t)  # each piece in its own time origin
+    coeffs = [(2.0, 3.0, -4.0), (-5.0, 0.5, 7.0), (1.0, -6.0, 2.5)]
+    y = np.concatenate([c0 + c1 * tau[100 * j:100 * (j + 1)] + c2 * tau[100 * j:100 * (j + 1)] ** 2
+                        for j, (c0, c1, c2) in enumerate(coeffs)])
+    r = fit(t, y, 2)
+    assert list(r.parts[0].knots) == [0, 100, 200, 300]
+    np.testing.assert_allclose(r.evaluate(t)[:, 0], y, atol=1e-9)
+    # pieces of exactly order + 1 samples: the true fit leaves no residual and no degree of freedom
+    # (its long-run variance is 0: infinitely significant, not a division by zero)
+    t6 = np.arange(6) / 100.0
+    y6 = np.r_[np.polyval([3.0, -1.0, 2.0], t6[:3]), np.polyval([-2.0, 4.0, 1.0], t6[:3])]
+    r6 = fit(t6, y6, 2)
+    assert list(r6.parts[0].knots) == [0, 3, 6]
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("levels,order", [((0, 1, 2), 2), ((0, 4, 0), 0)])
+def test_auto_knot_count_at_lambda0_is_the_solutions_own(levels, order):
+    """At λ0 the solver may return the 2-knot tie: its exact residual must not be taken for the
+    residual of k = 0 (which then looked infinitely significant and won: no knot at all)."""
+    from mocapkit.filters.penalty import choose_knot_cost
+
+    t, y = _levels(levels)
+    ch = choose_knot_cost([(t, y[:, None])], order)
+    assert ch.n_knots == 2 and list(ch.solutions[0].knots) == [0, 100, 200, 300]
+    lo, hi = ch.range
+    assert lo < ch.knot_cost < hi and ch.significance > 1e12
+    # the range is the 2-knot count's own: just inside either end the exact solver agrees
+    assert solve_additive(t, y, order, hi * 0.999).n_knots == 2
+    assert solve_additive(t, y, order, hi * 1.5).n_knots < 2
+    assert fit(t, y, order).n_knots == 2

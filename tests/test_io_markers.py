@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.c3d import check_c3d_structure, read_c3d
+from mocapkit.io.c3d import check_c3d_structure, read_c3d, write_c3d
 from mocapkit.io.qtm import read_qtm_tsv, read_qtm_tsv_text
 from mocapkit.io.loaders import kind_of
 from mocapkit.io.vicon_csv import read_vicon_csv
@@ -38,6 +38,22 @@ def _markers(n=4, labels=("a", "b"), rate=100.0, **kw) -> Markers:
 # ==================================================================================================
 # the Markers model
 # ==================================================================================================
+
+
+def test_model_modules_import_no_io_at_module_level():
+    """Imports point down: the data model (motion, skeleton, markers, quat, errors) imports
+    mocapkit.io only inside functions."""
+    import ast
+
+    import mocapkit
+
+    src = Path(mocapkit.__file__).parent
+    for name in ("motion", "skeleton", "markers", "quat", "errors"):
+        tree = ast.parse((src / f"{name}.py").read_text())
+        for node in tree.body:
+            mods = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                    else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            assert not any(m == "mocapkit.io" or m.startswith("mocapkit.io.") for m in mods), (name, mods)
 
 
 def test_markers_basic_properties():
@@ -688,6 +704,44 @@ def test_c3d_data_longer_than_declared_is_reported(tmp_path):
     assert len(m.meta["warnings"]) == 1 and "only the declared frames are read" in m.meta["warnings"][0]
 
 
+@pytest.mark.parametrize("partial", [0, 100, 600, 639])
+def test_c3d_truncated_file_has_only_the_truncation_warning(tmp_path, partial):
+    # 40 markers: a frame is 640 bytes, so a leftover partial frame can exceed a 512-byte block; it
+    # must not also be reported as "bytes after the declared frames (room for 0 more frames)"
+    f = tmp_path / "cut.c3d"
+    write_c3d(_random_markers(n=10, m=40, seed=3), f)
+    data = f.read_bytes()
+    dpos = 512 * (data[16] - 1)
+    f.write_bytes(data[:dpos + 7 * 640 + partial])
+    m = read_c3d(f)
+    assert m.n_frames == ezc3d.c3d(str(f))["data"]["points"].shape[2] == 7
+    assert len(m.meta["warnings"]) == 1, m.meta["warnings"]
+    assert "the data section is truncated" in m.meta["warnings"][0]
+    assert "holds 7 complete frames" in m.meta["warnings"][0]
+
+
+def test_c3d_bytes_after_the_data_less_than_a_frame_are_not_reported(tmp_path):
+    f = tmp_path / "pad.c3d"
+    write_c3d(_random_markers(n=10, m=40, seed=3), f)
+    data = f.read_bytes()
+    dpos = 512 * (data[16] - 1)
+    f.write_bytes(data[:dpos + 10 * 640] + bytes(600))  # 600 bytes: a block, not a frame (640)
+    assert read_c3d(f).meta["warnings"] == []
+    f.write_bytes(data[:dpos + 10 * 640] + bytes(2 * 640))
+    w = read_c3d(f).meta["warnings"]
+    assert len(w) == 1 and "room for 2 more frames" in w[0]
+
+
+@pytest.mark.shared
+def test_shared_c3d_cut_short_has_one_warning(shared_data, tmp_path):
+    f = tmp_path / "bts_cut.c3d"
+    data = (shared_data / "c3d" / "BTS.c3d").read_bytes()
+    f.write_bytes(data[:-100])
+    m = read_c3d(f)
+    assert m.n_frames == ezc3d.c3d(str(f))["data"]["points"].shape[2] == 674
+    assert len(m.meta["warnings"]) == 1 and "holds 674 complete frames" in m.meta["warnings"][0]
+
+
 # ==================================================================================================
 # C3D writer
 # ==================================================================================================
@@ -725,6 +779,40 @@ def test_write_c3d_round_trip_against_ezc3d(tmp_path):
     res = ref["data"]["meta_points"]["residuals"][0].T
     np.testing.assert_array_equal(res < 0, mk.missing)
     assert ref["header"]["points"]["first_frame"] == 10
+
+
+@pytest.mark.parametrize("first", [65533, 65534, 65535, 3 * 65536 + 40000])
+def test_write_c3d_late_first_frame_round_trip(tmp_path, first):
+    # a take cropped late in a long recording: frame numbers beyond the header's 16 bits go to
+    # TRIAL:ACTUAL_START_FIELD / ACTUAL_END_FIELD as [low, high] 16-bit words
+    mk = _random_markers(n=20, m=3, rate=120.0, first=first, seed=5)
+    f = tmp_path / "late.c3d"
+    write_c3d(mk, f)
+    back = read_c3d(f)
+    assert back.meta["first_frame"] == first + 1 and back.meta["warnings"] == []
+    np.testing.assert_allclose(back.times, mk.times, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(back.positions, mk.positions.astype(np.float32).astype(np.float64))
+    ref = ezc3d.c3d(str(f))  # independently: what a C3D tool sees
+    assert ref["data"]["points"].shape[2] == 20
+    if first + 1 <= 0xFFFF:
+        assert ref["header"]["points"]["first_frame"] == first  # ezc3d: 0-based
+        assert "TRIAL" not in ref["parameters"] and back.meta["first_frame_from"] == "header"
+        return
+    assert back.meta["first_frame_from"] == "TRIAL:ACTUAL_START_FIELD"
+    assert ref["header"]["points"]["first_frame"] == 0
+    trial = ref["parameters"]["TRIAL"]
+    for name, want in (("ACTUAL_START_FIELD", first + 1), ("ACTUAL_END_FIELD", first + 20)):
+        assert trial[name]["type"] == 2  # integer words, as the C3D documentation defines them
+        lo, hi = (int(v) & 0xFFFF for v in trial[name]["value"])
+        assert lo + 65536 * hi == want
+
+
+def test_write_c3d_refuses_negative_frames(tmp_path):
+    from mocapkit.errors import InvalidParameterError
+
+    with pytest.raises(InvalidParameterError, match="first frame number"):
+        write_c3d(_random_markers(n=5, m=2, first=-3), tmp_path / "neg.c3d")
+    assert not (tmp_path / "neg.c3d").exists()
 
 
 def _umask() -> int:

@@ -4,6 +4,7 @@ times, malformed files and the command line (info, convert, compress, segment)."
 
 from __future__ import annotations
 
+import copy
 import json
 import re
 import subprocess
@@ -245,6 +246,18 @@ def _cases():
     yield "bad rate", t, _line_of(t, 'frameRate="sixty"'), "is not a number"
     t = text.replace("<pos_b>0.000000 0.000000 0.000000</pos_b>", "<pos_b>0 0</pos_b>", 1)
     yield "short pos_b", t, _line_of(t, "<pos_b>0 0</pos_b>"), "expected 3 numbers"
+    # a <segment> holding <points> outside <segments>: before any segment (was an IndexError) and
+    # after them (its points were filed under the last segment)
+    stray = '<segment label="Stray">\n<points>\n<point label="pStray">\n<pos_b>0 0 0</pos_b>\n</point>\n</points>\n</segment>\n'
+    for where, anchor in (("before", "<segments>"), ("after", "</segments>")):
+        i = text.index(anchor) + (len(anchor) + 1 if where == "after" else 0)
+        t = text[:i] + stray + text[i:]
+        yield f"segment outside segments {where}", t, _line_of(t, '<point label="pStray">'), "outside mvnx/subject/segments"
+    i = text.index("<orientation>", text.index(f3))
+    t = text[:i] + '<frames><frame type="normal"/></frames>' + text[i:]
+    yield "frames inside a frame", t, _line_of(t, '<frame type="normal"/>'), "outside mvnx/subject/frames"
+    t = text[:i + 13] + "<x/>" + text[i + 13:]
+    yield "element inside orientation", t, _line_of(t, "<x/>"), "holds text only"
 
 
 CASES = list(_cases())
@@ -329,6 +342,67 @@ def test_cli_malformed_names_path_and_line(tmp_path: Path) -> None:
 # --------------------------------------------------------------------------------------------------
 
 _BYTES = EXCERPT.read_bytes()
+
+
+def _small_tree() -> ET.Element:
+    """The excerpt with its 3 calibration and first 3 normal frames (fast to read many times)."""
+    root = ET.fromstring(_BYTES)
+    ns = root.tag[: root.tag.index("}") + 1]
+    frames = root.find(f"{ns}subject/{ns}frames")
+    for fr in list(frames)[6:]:
+        frames.remove(fr)
+    return root
+
+
+_SMALL = ET.tostring(_small_tree())
+_TAGS = sorted({e.tag for e in _small_tree().iter()})
+
+
+def _nest(root: ET.Element, op: int, a: int, b: int, c: int) -> None:
+    """One change of element nesting: move, copy, wrap (in an element of the file's vocabulary) or
+    unwrap (children take its place) element ``a``; ``b`` and ``c`` pick the target and position."""
+    els = list(root.iter())
+    parent = {ch: p for p in els for ch in p}
+    x = els[1 + a % (len(els) - 1)]
+    p = parent[x]
+    i = list(p).index(x)
+    if op in (0, 1):
+        inside = set(x.iter())
+        targets = [e for e in els if e not in inside]
+        y = targets[b % len(targets)]
+        if op == 0:
+            p.remove(x)
+        else:
+            x = copy.deepcopy(x)
+        y.insert(c % (len(y) + 1), x)
+    elif op == 2:
+        w = ET.Element(_TAGS[b % len(_TAGS)], x.attrib if c % 2 else {})
+        p.remove(x)
+        w.append(x)
+        p.insert(i, w)
+    else:
+        p.remove(x)
+        for k, ch in enumerate(list(x)):
+            p.insert(i + k, ch)
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.tuples(st.integers(0, 3), st.integers(0, 10**6), st.integers(0, 10**6), st.integers(0, 10**6)),
+                min_size=1, max_size=3))
+def test_fuzz_element_nesting_only_format_errors_escape(tmp_path: Path, ops) -> None:
+    """Elements moved, copied, wrapped or unwrapped anywhere (a <segment> with <points> outside
+    <segments>, a <frame> inside a <frame>, an element inside <orientation>...)."""
+    root = ET.fromstring(_SMALL)
+    for op in ops:
+        _nest(root, *op)
+    f = tmp_path / "nest.mvnx"
+    f.write_bytes(ET.tostring(root))
+    try:
+        m = read_mvnx(f)
+    except MocapFormatError as e:
+        assert e.path == str(f)
+    else:
+        assert m.n_frames >= 1 and np.all(np.isfinite(m.rotations)) and np.all(np.isfinite(m.translations))
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

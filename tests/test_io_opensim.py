@@ -22,6 +22,7 @@ from mocapkit.io.opensim import (
     read_trc,
     write_orientations,
     write_table,
+    write_table_csv,
     write_trc,
 )
 from mocapkit.markers import Markers
@@ -323,6 +324,35 @@ def test_cli_convert_tables(tmp_path):
     assert r.returncode == 0 and '"kind": "table"' in r.stdout and '"in_degrees": true' in r.stdout
     r = run("convert", IK, tmp_path / "x.bvh")
     assert r.returncode == 2 and "converts to .mot, .sto or .csv" in r.stderr
+
+
+def test_write_table_csv_tables_and_orientations(tmp_path):
+    ik = read_opensim_signals(IK)
+    f = tmp_path / "ik.csv"
+    write_table_csv(ik, f)
+    sig = read_table(IK)
+    lines = f.read_text().splitlines()
+    assert lines[0].split(",") == ["time", *sig.meta["labels"]] and len(lines) == len(sig) + 1
+    back = np.array([[float(x) for x in ln.split(",")] for ln in lines[1:]])  # exact: repr
+    np.testing.assert_array_equal(back[:, 0], sig.times)
+    np.testing.assert_array_equal(back[:, 1:], sig.values)
+    imus = read_orientations(ORIENT)
+    write_table_csv(imus, tmp_path / "o.csv")
+    csv = np.genfromtxt(tmp_path / "o.csv", delimiter=",", names=True)
+    for name, q in imus.items():
+        for k, c in enumerate("wxyz"):
+            np.testing.assert_array_equal(csv[f"{name}_{c}"], q.values[:, k])
+    # refused: signals on different times, a header that CSV cannot hold, mixed kinds
+    first, second = list(imus.items())[:2]
+    shifted = Signal(second[1].times + 1.0, second[1].values, kind="quaternion", name=second[0])
+    with pytest.raises(InvalidParameterError, match="share the first one's times"):
+        write_table_csv({first[0]: first[1], second[0]: shifted}, tmp_path / "x.csv")
+    bad = Signal(sig.times, sig.values, kind="vector", meta={"labels": ["a,b", *sig.meta["labels"][1:]]})
+    with pytest.raises(InvalidParameterError, match="CSV header"):
+        write_table_csv({"t": bad}, tmp_path / "x.csv")
+    with pytest.raises(InvalidParameterError, match="one vector signal or quaternion"):
+        write_table_csv({"t": sig, first[0]: first[1]}, tmp_path / "x.csv")
+    assert not (tmp_path / "x.csv").exists()
 
 
 @pytest.mark.parametrize("suffix", [".c3d", ".trc"])

@@ -43,7 +43,6 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.atomic import atomic_write_text, read_file_bytes
 
 __all__ = [
     "Markers",
@@ -343,6 +342,8 @@ class Markers:
         it back as NaN). Header cells holding a comma or a quote are quoted as per RFC 4180. Line ends
         are ``\\n``. :func:`read_markers_csv` reads the file back.
         """
+        from mocapkit.io.atomic import atomic_write_text  # the model imports io lazily only
+
         buf = io.StringIO()
         csv.writer(buf, lineterminator="\n").writerow(self.csv_header())
         flat = self.positions.reshape(self.n_frames, -1)
@@ -365,6 +366,8 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str = "
     an empty cell) is a missing coordinate. ``rate`` defaults to the mean rate
     ``(N - 1) / (t[-1] - t[0])`` (1 Hz for a single frame): pass it when you know it; the CSV does not store the units, so they are taken from ``units``.
     """
+    from mocapkit.io.atomic import read_file_bytes  # the model imports io lazily only
+
     p = Path(path)
     src = str(p)
     data = read_file_bytes(p, "CSV file")

@@ -27,7 +27,8 @@ gain is a few ``σ²_LR``: low ratio); the ratio peaks at the knee of ``S(k)`` w
 ``k = 0`` competes with ``S(0)/σ²_LR(0)`` — the effective sample size of the single polynomial's
 residual, i.e. what a knot would have to gain to explain everything: white or correlated noise, a
 static marker's drift (no structure, a residual of ~white noise: thousands) keep ``k = 0``; a
-constant (``S(0) = 0``) gets no knot. Within the chosen count's exact range of ``λ`` (its two hull
+constant (``S(0) = 0``) gets no knot. A count whose fit leaves no residual at all (a noise-free
+piecewise polynomial; ``σ²_LR = 0``) is infinitely significant: the fewest such knots win. Within the chosen count's exact range of ``λ`` (its two hull
 slopes, found by intersection as in CROPS, Haynes, Eckley and Fearnhead 2017) ``λ`` is the geometric
 centre: the most robust cost for that segmentation.
 
@@ -162,19 +163,22 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
         if k == 0 or ssr + lam0 * k >= S0 * (1 - 1e-12):
             break
         lam0 = (S0 - ssr) / k
-    # grid below lam0 down to the floor; the significance of every knot count seen
-    grid = [(lam0, 0)]
+    # grid from lam0 down to the floor, with the knot count each λ really gives: at lam0 that may be
+    # k > 0 (a tie with k = 0: all of its knots gain exactly lam0, e.g. two equal steps)
+    grid = [(lam0, solve(lam0)[0])]
     lam = lam0 / step
     while lam >= floor:
         grid.append((lam, solve(lam)[0]))
         lam /= step
-    top: dict[int, float] = {}  # the largest grid λ giving k: about the gain of k's weakest knot
+    top: dict[int, float] = {0: lam0}  # the largest grid λ giving k: about the gain of k's weakest knot
     for la, k in grid:
         top[k] = max(top.get(k, 0.0), la)
-    sig = {0: S0 / long_run_variance(parts, solve(lam0)[2])}
+    # k = 0 is judged on the residual of the single polynomial: above S0 no knot can pay
+    zero = solve(lam0)[2] if grid[0][1] == 0 else solve(2.0 * S0)[2]
+    sig = {0: _significance(S0, long_run_variance(parts, zero))}
     for k, la in top.items():
         if k > 0:
-            sig[k] = la / long_run_variance(parts, solve(la)[2])
+            sig[k] = _significance(la, long_run_variance(parts, solve(la)[2]))
     best = max(sig, key=lambda k: (sig[k], -k))
     # the exact range of the chosen count: hull slopes to its neighbours on the grid
     ks = sorted(top)
@@ -182,7 +186,7 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
         lo, hi = lam0, S0
     else:
         i = ks.index(best)
-        ssr_of = {k: solve(top[k])[1] for k in ks}
+        ssr_of = {k: S0 if k == 0 else solve(top[k])[1] for k in ks}
         hi = _refine(solve, best, ssr_of[best], ks[i - 1], ssr_of[ks[i - 1]], keep="lo")
         lo = (_refine(solve, ks[i + 1], ssr_of[ks[i + 1]], best, ssr_of[best], keep="hi") if i + 1 < len(ks)
               else floor)
@@ -193,11 +197,21 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
     return KnotCostChoice(lam, k, (lo, hi), floor, sols, path, sig[best])
 
 
+def _significance(gain: float, lrv: float) -> float:
+    """``gain / σ²_LR`` as a Python float; a fit that leaves no residual (``σ²_LR = 0``: every piece
+    exact, or no degree of freedom left) makes any positive gain infinitely significant."""
+    gain, lrv = float(gain), float(lrv)
+    if lrv > 0.0:
+        return gain / lrv
+    return math.inf if gain > 0.0 else 0.0
+
+
 def long_run_variance(parts: Parts, sols: Sequence[PiecewisePolynomial]) -> float:
     """Long-run variance per sample and component of the residual of a fit, ``σ²·(1 + ρ)/(1 − ρ)``:
     σ² the residual variance (SSR over the degrees of freedom left), ρ its lag-1 autocorrelation
     taken within chunks (an AR(1) model of the residual; ρ clipped to ``[0, 1 − 1/n]``, so that the
-    effective sample size ``n·(1 − ρ)/(1 + ρ)`` lies between about 1 and n)."""
+    effective sample size ``n·(1 − ρ)/(1 + ρ)`` lies between about 1 and n). 0 when the fit leaves
+    no residual (see :func:`_significance`)."""
     num = den = ssr = 0.0
     n = dof = 0
     for (t, Y), sol in zip(parts, sols):

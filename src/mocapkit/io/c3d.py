@@ -466,10 +466,12 @@ def _check(data: bytes) -> C3DLayout:
     dpos = _BLOCK * (dstart - 1)
     if dpos > size:
         raise _Bad(f"the data section (block {dstart}) starts beyond the end of the file ({size} bytes)")
+    truncated = False
     if frame_bytes:
         # ezc3d reads the complete frames that are there (and stops at the end of the file)
         held = (size - dpos) // frame_bytes
         if held < n_frames:
+            truncated = True
             warnings.append(f"the data section is truncated: the parameters say {n_frames} frames of "
                             f"{frame_bytes} bytes from byte {dpos}, the file ({size} bytes) holds {held} "
                             f"complete frames; {held} frames read")
@@ -494,8 +496,10 @@ def _check(data: bytes) -> C3DLayout:
         if rbytes and _BLOCK * (rs - 1) + rbytes > size:
             raise _Bad(f"the ROTATION data section is truncated ({ru} rotations x {rr} per frame "
                        f"from block {rs} do not fit in the file)")
-    if frame_bytes and not rbytes and size - dpos - data_bytes >= _BLOCK:
-        extra = (size - dpos - data_bytes) // frame_bytes
+    # bytes after the declared frames (a truncated file's leftover partial frame is not one of them;
+    # less than a frame or a padded last block is the usual end of a data section)
+    extra = (size - dpos - data_bytes) // frame_bytes if frame_bytes else 0
+    if not truncated and not rbytes and extra >= 1 and size - dpos - data_bytes >= _BLOCK:
         warnings.append(f"the file has {size - dpos - data_bytes} bytes after the {n_frames} frames the "
                         f"parameters declare (room for {extra} more frames); as ezc3d, only the declared "
                         "frames are read")
@@ -663,6 +667,8 @@ def read_c3d(path: str | Path) -> Markers:
 #: :func:`write_c3d`, in frames (text formats round their times: a TRC at 60 Hz with 3 decimals is
 #: off by up to 0.03 frame).
 TIME_GRID_TOLERANCE = 0.1
+#: Largest first frame number :func:`write_c3d` stores (TRIAL:ACTUAL_START_FIELD holds 32 bits).
+MAX_START_FRAME = 2**32 - 1
 
 
 def _frame_grid(markers: Markers) -> int:
@@ -678,16 +684,24 @@ def _frame_grid(markers: Markers) -> int:
             f"C3D stores frames at a constant rate: frame {i} (t={float(markers.times[i])!r} s) is "
             f"{float(dev[i]):.3g} frames off the {markers.rate:g} Hz grid (gaps in time cannot be "
             "stored; write TRC or CSV instead)")
-    if not 0 <= first <= 65534:
-        raise InvalidParameterError(f"the first frame number ({first + 1}) does not fit in a C3D header")
+    if not 0 <= first < MAX_START_FRAME:
+        raise InvalidParameterError(f"the first frame number ({first + 1}) cannot be stored in C3D "
+                                    f"(frame numbers run from 1 to {MAX_START_FRAME})")
     return first + 1
+
+
+def _words(value: int) -> np.ndarray:
+    """``value`` as the two 16-bit words ``[low, high]`` of the TRIAL:*_FIELD parameters."""
+    return np.array([value & 0xFFFF, (value >> 16) & 0xFFFF], dtype=np.int64)
 
 
 def write_c3d(markers: Markers, path: str | Path, *, analog: bool = True) -> None:
     """Write markers as a C3D file (float storage, Intel byte order) with ezc3d, atomically.
 
     Stored: ``POINT:LABELS`` (``LABELS2``... beyond 255 markers), ``POINT:RATE``, ``POINT:UNITS``,
-    the header's first frame (``round(times[0] * rate) + 1``, so the time origin is kept), the
+    the first frame number (``round(times[0] * rate) + 1``, so the time origin is kept) in the
+    header, or beyond 65535 (a take cropped late in a long recording) in ``TRIAL:ACTUAL_START_FIELD``
+    and ``ACTUAL_END_FIELD`` (low and high 16-bit words, the header then counting from 1), the
     positions as float32 and a missing sample as the C3D invalid point (coordinates 0, residual -1;
     read back as NaN). Times must lie on the frame grid (within ``TIME_GRID_TOLERANCE`` frames).
     With ``analog=True`` the analog channels (when present) are written too; they need a rate that
@@ -735,8 +749,19 @@ def write_c3d(markers: Markers, path: str | Path, *, analog: bool = True) -> Non
         if units is not None and len(units) == len(a["labels"]):
             c["parameters"]["ANALOG"]["UNITS"]["value"] = [u or " " for u in units]
         c["data"]["analogs"] = np.ascontiguousarray(vals.T)[None]
-    c["header"]["points"]["first_frame"] = first - 1
-    c["header"]["points"]["last_frame"] = first - 2 + n
+    if first <= 0xFFFF:
+        c["header"]["points"]["first_frame"] = first - 1
+        c["header"]["points"]["last_frame"] = first - 2 + n
+    else:
+        # the header's 16-bit words cannot hold the frame numbers: the header counts from 1 and
+        # TRIAL:ACTUAL_START_FIELD / ACTUAL_END_FIELD hold the 32-bit first and last frame numbers
+        # as [low, high] 16-bit words (integer parameters; read_c3d and ezc3d see low + 65536 * high)
+        c["header"]["points"]["first_frame"] = 0
+        c["header"]["points"]["last_frame"] = n - 1
+        for name, value in (("ACTUAL_START_FIELD", first), ("ACTUAL_END_FIELD", first + n - 1)):
+            c.add_parameter("TRIAL", name, [0, 0])
+            c["parameters"]["TRIAL"][name]["type"] = 2  # integer (a Python list is stored as float)
+            c["parameters"]["TRIAL"][name]["value"] = _words(value)
     with tempfile.TemporaryDirectory(prefix="mocapkit-c3d-") as tmp:
         name = str(Path(tmp) / "out.c3d")
         c.write(name)

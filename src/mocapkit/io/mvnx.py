@@ -17,6 +17,10 @@ frameRate="…">`` with
   element (velocities, sensor data, joint angles, centre of mass, …) is ignored. A frame without a
   ``type`` is taken as a normal frame.
 
+These elements are read only at the paths above. One found under its usual parent elsewhere (a
+``<segment>`` with ``<points>`` outside ``<segments>``, a ``<frames>`` block inside a frame) or an
+element inside a text element (``<pos_b>``, ``<orientation>``…) is refused rather than dropped.
+
 The file is read with the streaming expat parser (the parser under ``xml.etree``), keeping only the
 two numeric arrays of the normal frames: a long recording costs 7 floats per segment and frame. The
 expat parser is used directly (not ``iterparse``) because it reports the line of every element, so
@@ -71,7 +75,19 @@ CALIBRATION_FRAME_TYPES = ("identity", "tpose", "tpose-isb")
 #: still a rigid segment (see the module docstring).
 GAP_TOLERANCE_M = 1e-4
 
-_TEXT_ELEMENTS = frozenset(("pos_b", "connector1", "connector2", "orientation", "position"))
+# Where the elements read sit (local names from the root). An element with one of these names whose
+# parent has the expected name but whose path differs (a <segment> with <points> outside <segments>,
+# a <frames> block inside a frame...) is refused: its data would otherwise be dropped or misfiled.
+_SUBJECT = ("mvnx", "subject")
+_SEGMENT = _SUBJECT + ("segments", "segment")
+_POINT = _SEGMENT + ("points", "point")
+_JOINT = _SUBJECT + ("joints", "joint")
+_FRAMES = _SUBJECT + ("frames",)
+_FRAME = _FRAMES + ("frame",)
+_PLACES = {"subject": _SUBJECT, "segment": _SEGMENT, "point": _POINT, "joint": _JOINT, "frame": _FRAME}
+#: Elements holding numbers or a connector (text only), by the path of their parent.
+_TEXT_ELEMENTS = {"pos_b": _POINT, "connector1": _JOINT, "connector2": _JOINT,
+                  "orientation": _FRAME, "position": _FRAME}
 
 
 def _local(name: str) -> str:
@@ -87,6 +103,7 @@ class _Reader:
         self.p = parser
         self.stack: list[str] = []
         self.text: list[str] | None = None
+        self.text_tag = ""
         self.text_line = 0
         self.version = None
         self.mvn_version = None
@@ -135,6 +152,8 @@ class _Reader:
     # -- handlers ----------------------------------------------------------------------------------
     def start(self, name: str, attrs: dict) -> None:
         tag = _local(name)
+        if self.text is not None:
+            self.fail(f"<{tag}> inside <{self.text_tag}> (line {self.text_line}), which holds text only")
         parent = self.stack[-1] if self.stack else None
         self.stack.append(tag)
         if parent is None:
@@ -142,9 +161,13 @@ class _Reader:
                 self.fail(f"not an MVNX file: the root element is <{tag}>, expected <mvnx>")
             self.version = attrs.get("version")
             return
-        if tag == "mvn" and parent == "mvnx":
+        path = tuple(self.stack)
+        place = _PLACES.get(tag)
+        if place is not None and path != place and parent == place[-2]:
+            self.fail(f"<{tag}> at {'/'.join(path)}: a <{parent}> outside {'/'.join(place[:-1])}")
+        if tag == "mvn" and len(path) == 2:
             self.mvn_version = attrs.get("version")
-        elif tag == "subject" and parent == "mvnx":
+        elif path == _SUBJECT:
             if self.subject is not None:
                 self.fail(f"a second <subject> (the first is on line {self.subject_line}): files with several "
                           "subjects are not supported")
@@ -154,7 +177,7 @@ class _Reader:
             if rate is not None and rate <= 0:
                 self.fail(f"<subject> frameRate={attrs['frameRate']!r} must be positive")
             self.subject["_rate"] = rate
-        elif tag == "segment" and parent == "segments":
+        elif path == _SEGMENT:
             label = attrs.get("label", "").strip()
             if not label:
                 self.fail("<segment> without a label")
@@ -164,16 +187,16 @@ class _Reader:
                 self.fail(f"segment {label!r} after the frames")
             self.seg_index[label] = len(self.segments)
             self.segments.append({"label": label, "line": self.p.CurrentLineNumber, "points": {}})
-        elif tag == "point" and parent == "points" and len(self.stack) >= 3 and self.stack[-3] == "segment":
+        elif path == _POINT:
             label = attrs.get("label", "").strip()
             if not label:
                 self.fail(f"<point> without a label in segment {self.segments[-1]['label']!r}")
             self.point = {"label": label, "line": self.p.CurrentLineNumber, "pos": None}
-        elif tag == "joint" and parent == "joints":
+        elif path == _JOINT:
             self.joint = {"label": attrs.get("label", "?"), "line": self.p.CurrentLineNumber}
-        elif tag == "frames" and parent == "subject":
+        elif path == _FRAMES:
             self.frames_seen = True
-        elif tag == "frame" and parent == "frames":
+        elif path == _FRAME:
             ftype = attrs.get("type", "normal").strip()
             line = self.p.CurrentLineNumber
             if ftype != "normal":
@@ -192,8 +215,9 @@ class _Reader:
             else:
                 idx = None
             self.frame = {"line": line, "time": t, "index": idx, "orientation": None, "position": None}
-        if tag in _TEXT_ELEMENTS and self._wants_text(tag):
+        elif tag in _TEXT_ELEMENTS and path[:-1] == _TEXT_ELEMENTS[tag] and self._wants_text(tag):
             self.text = []
+            self.text_tag = tag
             self.text_line = self.p.CurrentLineNumber
 
     def _wants_text(self, tag: str) -> bool:
@@ -201,31 +225,32 @@ class _Reader:
             return self.point is not None
         if tag in ("connector1", "connector2"):
             return self.joint is not None
-        return self.frame is not None and len(self.stack) >= 2 and self.stack[-2] == "frame"
+        return self.frame is not None
 
     def chars(self, data: str) -> None:
         if self.text is not None:
             self.text.append(data)
 
     def end(self, name: str) -> None:
+        path = tuple(self.stack)
         tag = self.stack.pop()
-        if self.text is not None and tag in _TEXT_ELEMENTS:
+        if self.text is not None:  # nothing can open inside a text element: this one closes it
             text = "".join(self.text)
             self.text = None
             self._text_element(tag, text, self.text_line)
-        if tag == "point" and self.point is not None:
+        if path == _POINT and self.point is not None:
             seg = self.segments[-1]
             if self.point["pos"] is None:
                 self.fail(f"point {self.point['label']!r} of segment {seg['label']!r} has no <pos_b>", self.point["line"])
             seg["points"].setdefault(self.point["label"], self.point["pos"])
             self.point = None
-        elif tag == "joint" and self.joint is not None:
+        elif path == _JOINT and self.joint is not None:
             for c in ("connector1", "connector2"):
                 if c not in self.joint:
                     self.fail(f"joint {self.joint['label']!r} has no <{c}>", self.joint["line"])
             self.joints.append(self.joint)
             self.joint = None
-        elif tag == "frame" and self.frame is not None:
+        elif path == _FRAME and self.frame is not None:
             f = self.frame
             for key in ("orientation", "position"):
                 if f[key] is None:

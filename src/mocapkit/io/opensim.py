@@ -66,6 +66,7 @@ __all__ = [
     "read_opensim_signals",
     "write_table",
     "write_orientations",
+    "write_table_csv",
 ]
 
 
@@ -530,3 +531,35 @@ def write_orientations(signals: dict[str, Signal], path: str | Path, *, rate: fl
     for i, ti in enumerate(t.tolist()):
         out.append("\t".join([repr(ti)] + [",".join(_fmt(v, decimals) for v in q[i]) for q in vals]))
     atomic_write_text(path, "\n".join(out) + "\n")
+
+
+def write_table_csv(signals: dict[str, Signal], path: str | Path) -> None:
+    """Write what :func:`read_opensim_signals` returns as a comma-separated table, atomically.
+
+    One ``"vector"`` signal (a MOT/STO table) gives ``time`` and its ``meta["labels"]`` (else
+    ``c1..cD``); quaternion signals (an orientation file) give ``time`` and ``<imu>_w, _x, _y, _z``
+    per IMU. Numbers are written with ``repr`` (exact; a gap is ``nan``). Every signal must share the
+    first one's times.
+    """
+    if not signals:
+        raise InvalidParameterError("no signals to write")
+    items = list(signals.items())
+    first = items[0][1]
+    if len(items) == 1 and first.kind == "vector":
+        d = first.values.shape[1]
+        head = list(first.meta.get("labels") or [f"c{k + 1}" for k in range(d)])
+        if len(head) != d:
+            raise InvalidParameterError(f"{len(head)} labels for {d} columns")
+    elif all(s.kind == "quaternion" for _, s in items):
+        head = [f"{n}_{c}" for n, _ in items for c in "wxyz"]
+    else:
+        raise InvalidParameterError("write_table_csv writes one vector signal or quaternion signals")
+    for name, s in items:
+        if s.times.shape != first.times.shape or not np.array_equal(s.times, first.times):
+            raise InvalidParameterError(f"{name}: every signal must share the first one's times")
+    for col in head:
+        if not col or any(ch in col for ch in ',"\n\r'):
+            raise InvalidParameterError(f"column name {col!r} cannot be written to a CSV header")
+    body = np.column_stack([first.times] + [s.values for _, s in items])
+    atomic_write_text(path, ",".join(["time", *head]) + "\n" + "".join(
+        ",".join(repr(float(v)) for v in row) + "\n" for row in body))
