@@ -504,7 +504,7 @@ def convert(
         for w in mk.meta.get("warnings", []):
             err.print(f"warning: {input}: {w}")
     elif input.suffix.lower() in (".mot", ".sto"):
-        from mocapkit.io.opensim import read_opensim_signals, write_orientations, write_table
+        from mocapkit.io.opensim import read_opensim_signals, write_orientations, write_table, write_table_csv
 
         suffix = output.suffix.lower()
         if suffix not in (".mot", ".sto", ".csv"):
@@ -512,15 +512,7 @@ def convert(
         sigs = read_opensim_signals(input)
         first = next(iter(sigs.values()))
         if suffix == ".csv":
-            from mocapkit.io.atomic import atomic_write_text
-
-            if kind == "table":
-                head = ["time", *first.meta["labels"]]
-            else:
-                head = ["time"] + [f"{n}_{c}" for n in sigs for c in "wxyz"]
-            body = np.column_stack([first.times] + [s.values for s in sigs.values()])
-            atomic_write_text(output, ",".join(head) + "\n" + "".join(
-                ",".join(repr(float(v)) for v in row) + "\n" for row in body))
+            write_table_csv(sigs, output)
         elif kind == "table":
             write_table(first, output)
         else:
