@@ -1053,3 +1053,142 @@ def test_sensor_logger_euler_only(tmp_path: Path) -> None:
     assert "radians" in euler.meta["conversion"]
     assert np.array_equal(euler.times, quat.times)
     np.testing.assert_allclose(_matrix_of(euler.values), _matrix_of(quat.values), atol=1e-12)
+
+
+# ------------------------------------------------------------------------------------------------
+# rows under the header, Xsens DOT Euler export, unit-less clocks, stream memory
+# ------------------------------------------------------------------------------------------------
+
+
+def test_ios_sensorlog_rows_starting_with_a_date_are_data() -> None:
+    """iOS SensorLog: the first column is ``loggingTime(txt)`` (a date); no data row may be taken
+    for a units row."""
+    path = IMU / "sensorlog-ios" / "SensorLog_motion.csv"
+    names, data = _table(path, 1)
+    assert len(data) == 12 and all(r[0].startswith("2024-05-02 ") for r in data)   # rows start with a date
+    want = _cols(names, data, [f"motionQuaternion{c}(R)" for c in "WXYZ"])     # scalar-last in the file
+    by_rate = read_imu_csv(path, rate=100)             # no clock it recognises: rows at the given rate
+    assert np.array_equal(by_rate.values, want) and np.array_equal(by_rate.times, np.arange(12) / 100)
+    column = "motionTimestamp_sinceReboot(s)"
+    sig = read_imu_csv(path, time_column=column)       # unit (s) from the name
+    assert sig.meta["format"] == "sensorlog" and sig.meta["time_unit"] == "s" and sig.meta["warnings"] == []
+    assert np.array_equal(sig.times, [float(r[names.index(column)]) for r in data])
+    assert np.array_equal(sig.values, want)
+    msg = str(_error(path))
+    assert "--rate" in msg and "--time-column" in msg
+    from mocapkit.io.streamcsv import iter_samples
+
+    with open(path, newline="") as fh:
+        got = list(iter_samples(fh, str(path), time_column=column))
+    assert [ln for ln, _, _ in got] == list(range(2, 14))
+    assert np.array_equal([t for _, t, _ in got], sig.times) and np.array_equal([q for _, _, q in got], want)
+
+
+@pytest.mark.parametrize("n", [2, 5])
+def test_date_first_column_keeps_every_row(tmp_path: Path, n: int) -> None:
+    rows = [f"2024-05-02,{0.5 + i / 4},{i % 2},{(i + 1) % 2},0,0" for i in range(n)]
+    p = _write(tmp_path / "date.csv", "Date,Time (s),W,X,Y,Z\n" + "\n".join(rows) + "\n")
+    sig = read_imu_csv(p)
+    assert sig.times.tolist() == [0.5 + i / 4 for i in range(n)]
+    assert sig.values.tolist() == [[i % 2, (i + 1) % 2, 0, 0] for i in range(n)]
+    assert sig.meta["warnings"] == []
+    from mocapkit.io.streamcsv import iter_samples
+
+    got = list(iter_samples(p.read_text().splitlines(), str(p)))
+    assert [t for _, t, _ in got] == sig.times.tolist()
+
+
+def test_units_row_under_a_date_column_is_skipped_and_reported(tmp_path: Path) -> None:
+    p = _write(tmp_path / "u.csv", "Date,Time,W,X,Y,Z\n,ms,,,,\n2024-05-02,500,1,0,0,0\n2024-05-02,750,0,1,0,0\n")
+    sig = read_imu_csv(p)
+    assert sig.times.tolist() == [0.5, 0.75] and sig.meta["time_unit"] == "ms"
+    assert len(sig.meta["warnings"]) == 1 and "line 2" in sig.meta["warnings"][0]
+    apdm = load_signals(IMU / "apdm" / "imuData01_excerpt.csv")["Static"]
+    assert any("line 4" in w and "units row" in w for w in apdm.meta["warnings"])
+
+
+def test_xsens_dot_euler_export_matches_the_quaternion_export() -> None:
+    """``LFemur_euler_excerpt.csv`` holds the quaternion excerpt's rotations as Euler_X/Y/Z = roll,
+    pitch, yaw (degrees, 6 decimals; R = Rz(yaw)·Ry(pitch)·Rx(roll)); both files give the same rotations."""
+    quat = read_imu_csv(IMU / "xsens-dot" / "LFemur_excerpt.csv")
+    euler = read_imu_csv(IMU / "xsens-dot" / "LFemur_euler_excerpt.csv")
+    assert euler.meta["format"] == "xsens-dot" and euler.meta["rate"] == 60.0
+    assert euler.meta["orientation_columns"] == ["Euler_X", "Euler_Y", "Euler_Z"]
+    assert "degrees" in euler.meta["conversion"]
+    assert np.array_equal(euler.times, quat.times)
+    q = quat.values / np.linalg.norm(quat.values, axis=1, keepdims=True)
+    sign = np.sign(np.sum(q * euler.values, axis=1, keepdims=True))
+    np.testing.assert_allclose(euler.values * sign, q, atol=1e-7)
+    # the same names outside an Xsens file are not taken for roll, pitch, yaw (e.g. BNO055: x = heading)
+    with pytest.raises(MocapFormatError, match="no orientation columns"):
+        read_imu_text("time,Euler_X,Euler_Y,Euler_Z\n0,1,2,3\n", "<t>")
+
+
+@pytest.mark.parametrize(("first", "unit"), [("1698501144401", "ms"), ("1698501144401759", "us"),
+                                             ("1698501144401759663", "ns"), ("1698501144.4", "s"),
+                                             ("12.5", "s")])
+def test_unitless_epoch_by_magnitude(first: str, unit: str) -> None:
+    sig = read_imu_text(f"timestamp,qw,qx,qy,qz\n{first},1,0,0,0\n", "<t>")
+    assert sig.meta["time_unit"] == unit
+    assert sig.times[0] == pytest.approx(float(first) / {"s": 1, "ms": 1e3, "us": 1e6, "ns": 1e9}[unit])
+
+
+@pytest.mark.parametrize("first", ["12345678901234", "98765432101", "5000000000", "98765432101234567"])
+def test_unitless_clock_that_is_no_epoch_is_refused(tmp_path: Path, first: str) -> None:
+    """An Android uptime clock in ns (~1e13) is no epoch in any unit: no guess, an error naming the
+    column and --time-unit; with --time-unit it reads."""
+    p = _write(tmp_path / "up.csv", f"timestamp,qw,qx,qy,qz\n{first},1,0,0,0\n{int(first) + 10_000_000},0,1,0,0\n")
+    msg = _assert_where(_error(p), p, 1)
+    assert "'timestamp'" in msg and "--time-unit" in msg
+    sig = read_imu_csv(p, time_unit="ns")
+    assert sig.times.tolist() == [int(first) / 1e9, (int(first) + 10_000_000) / 1e9]
+
+
+@pytest.mark.parametrize(("header", "row"), [
+    ("time,qw,qx,qy,qz", "{t},1,0,0,0"),                    # a clock in seconds
+    ("Frame,qw,qx,qy,qz", "{i},1,0,0,0"),                   # a counter with a rate
+])
+def test_stream_memory_is_constant(header: str, row: str) -> None:
+    """``mocapkit stream`` keeps no per-row lists: the peak memory of 60 000 rows stays far below
+    what one list entry per row would take (line numbers and times or counters: >= 60 B a row, 3.6 MB)."""
+    import tracemalloc
+
+    from mocapkit.io.streamcsv import iter_samples
+
+    n = 60_000
+    rate = 100.0 if header.startswith("Frame") else None
+
+    def lines():
+        yield header + "\n"
+        for i in range(n):
+            yield row.format(t=repr(0.5 + i / 100), i=i) + "\n"
+
+    tracemalloc.start()
+    try:
+        count = 0
+        last = None
+        for last in iter_samples(lines(), "<gen>", rate):
+            count += 1
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert count == n and last is not None and last[1] == pytest.approx((n - 1) / 100 + (0.5 if rate is None else 0))
+    assert peak < 250_000, peak
+
+
+def test_stream_without_header_stops_buffering() -> None:
+    """Text lines without any orientation header: the stream reports the missing header after at
+    most MAX_HEAD_LINES lines instead of buffering the whole input."""
+    from mocapkit.io.streamcsv import MAX_HEAD_LINES, iter_samples
+
+    read = []
+
+    def lines():
+        yield "Date,note,value\n"
+        for i in range(10 * MAX_HEAD_LINES):
+            read.append(i)
+            yield f"2024-05-02,text {i},x\n"
+
+    with pytest.raises(MocapFormatError, match="no orientation columns"):
+        list(iter_samples(lines(), "<gen>"))
+    assert len(read) <= MAX_HEAD_LINES + 1

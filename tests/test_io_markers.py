@@ -136,7 +136,7 @@ def test_to_csv_layout_and_round_trip(tmp_path):
     m.to_csv(out)
     text = out.read_text()
     lines = text.split("\n")
-    assert lines[0] == 'time,RASI_x,RASI_y,RASI_z,"L,ASI_x","L,ASI_y","L,ASI_z"'
+    assert lines[0] == 'time (s),RASI_x (m),RASI_y (m),RASI_z (m),"L,ASI_x (m)","L,ASI_y (m)","L,ASI_z (m)"'
     assert lines[1] == "0.0,1.5,-2.0,3.0,nan,nan,nan"
     assert text.endswith("\n") and "\r" not in text
     assert [f for f in os.listdir(tmp_path) if f != "m.csv"] == []  # no temporary file left
@@ -146,6 +146,17 @@ def test_to_csv_layout_and_round_trip(tmp_path):
     np.testing.assert_array_equal(back.times, m.times)  # bit-exact (repr)
     np.testing.assert_array_equal(back.positions, m.positions)  # NaN in the same places
     assert back.units == "m"
+    assert read_markers_csv(out).units == "m" and read_markers_csv(out).meta["warnings"] == []  # unit kept
+    with pytest.raises(MocapFormatError, match="unit is 'm'"):
+        read_markers_csv(out, units="mm")
+    legacy = tmp_path / "legacy.csv"  # a header without units: mm, and said so
+    legacy.write_text("time,A_x,A_y,A_z\n0.0,1,2,3\n")
+    old_style = read_markers_csv(legacy)
+    assert old_style.units == "mm" and "mm assumed" in old_style.meta["warnings"][0]
+    mixed = tmp_path / "mixed.csv"
+    mixed.write_text("time,A_x (m),A_y (mm),A_z (m)\n0.0,1,2,3\n")
+    with pytest.raises(MocapFormatError, match="different units"):
+        read_markers_csv(mixed)
 
 
 def test_csv_round_trip_of_real_tsv_excerpt(tmp_path):

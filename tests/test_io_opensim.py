@@ -375,7 +375,7 @@ def test_cli_filter_output_markers_keeps_labels_rate_units_gaps(tmp_path, suffix
     ok = ~back.missing
     assert np.abs(back.positions[ok] - base[ok]).max() < 3.0  # filtered, close to the clean signal
     assert np.abs(back.positions[ok] - p[ok]).max() > 0.01  # and not a copy of the input
-    # the CSV output is still what it was
+    # the CSV output names each component with the marker file's unit
     r = run("filter", src, "--penalty", "50", "-o", tmp_path / "out.csv")
     assert r.returncode == 0, r.stderr
-    assert (tmp_path / "out.csv").read_text().startswith("time,Sub:LASI_x,")
+    assert (tmp_path / "out.csv").read_text().startswith("time (s),Sub:LASI_x (mm),")

@@ -679,6 +679,11 @@ def filter_cmd(
         t = results[0][1]
         cols = [filtered(tt, Y, r) for (_, tt, Y, _, r) in results]
         head = ["time"] + [c for (_, _, _, comps, _) in results for c in comps]
+        from mocapkit.io.loaders import kind_of, load_markers
+
+        if kind_of(input) == "markers" and columns is None:  # keep the length unit in the column names
+            units = load_markers(input).units
+            head = ["time (s)"] + [f"{c} ({units})" for c in head[1:]]
         body = np.column_stack([t] + cols)
         atomic_write_text(output, ",".join(head) + "\n" + "\n".join(",".join(repr(float(v)) for v in row) for row in body) + "\n")
     if as_json:

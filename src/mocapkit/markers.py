@@ -54,6 +54,7 @@ __all__ = [
 
 _CONTROL_RE = re.compile(r"[\x00-\x1f\x7f\ud800-\udfff]")
 _AXES = ("x", "y", "z")
+_UNIT_RE = re.compile(r"^(.*_[xyzXYZ])\s*\(([^()]+)\)$")  # "<label>_x (mm)"
 
 
 # --------------------------------------------------------------------------------------------------
@@ -331,11 +332,12 @@ class Markers:
     # ---------------------------------------------------------------------------------------------
 
     def csv_header(self) -> list[str]:
-        """Column names of :meth:`to_csv`: ``time`` then ``<label>_x, <label>_y, <label>_z``..."""
-        return ["time"] + [f"{lab}_{ax}" for lab in self.labels for ax in _AXES]
+        """Column names of :meth:`to_csv`: ``time (s)`` then ``<label>_x (<units>)``, ``_y``, ``_z``..."""
+        return ["time (s)"] + [f"{lab}_{ax} ({self.units})" for lab in self.labels for ax in _AXES]
 
     def to_csv(self, path: str | Path) -> None:
-        """Write a wide CSV atomically: ``time,<label>_x,<label>_y,<label>_z,...`` (one row a frame).
+        """Write a wide CSV atomically: ``time (s),<label>_x (mm),<label>_y (mm),...`` (one row a frame;
+        the length unit is part of every coordinate's name, so it survives the round trip).
 
         Numbers are written as ``repr(float)`` (shortest text that reads back bit-exactly); a missing
         marker is written as ``nan`` in its three cells (``float("nan")``, numpy and pandas all read
@@ -359,12 +361,15 @@ class Markers:
 # --------------------------------------------------------------------------------------------------
 
 
-def read_markers_csv(path: str | Path, rate: float | None = None, units: str = "mm") -> Markers:
+def read_markers_csv(path: str | Path, rate: float | None = None, units: str | None = None) -> Markers:
     """Read a wide marker CSV as written by :meth:`Markers.to_csv`.
 
-    The header must be ``time`` followed by ``<label>_x, <label>_y, <label>_z`` triples. ``nan`` (or
-    an empty cell) is a missing coordinate. ``rate`` defaults to the mean rate
-    ``(N - 1) / (t[-1] - t[0])`` (1 Hz for a single frame): pass it when you know it; the CSV does not store the units, so they are taken from ``units``.
+    The header must be ``time`` (or ``time (s)``) followed by ``<label>_x, <label>_y, <label>_z``
+    triples, each optionally with its unit, ``<label>_x (mm)``. ``nan`` (or an empty cell) is a missing
+    coordinate. ``rate`` defaults to the mean rate ``(N - 1) / (t[-1] - t[0])`` (1 Hz for a single
+    frame): pass it when you know it. The length unit is the header's; ``units`` gives it for a file
+    that does not state it (default ``"mm"``, recorded as an assumption in ``meta["warnings"]``) and
+    must agree with the header when both exist.
     """
     from mocapkit.io.atomic import read_file_bytes  # the model imports io lazily only
 
@@ -388,10 +393,30 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str = "
     except csv.Error as exc:
         raise MocapFormatError(src, 1, f"cannot parse the header: {exc}") from None
     header = [h.strip() for h in header]
+    if header and header[0].lower() in ("time (s)", "time(s)"):
+        header[0] = "time"
     if not header or header[0].lower() != "time":
         raise MocapFormatError(src, 1, f"the first column must be 'time', got {header[0] if header else ''!r}")
     if (len(header) - 1) % 3:
         raise MocapFormatError(src, 1, f"{len(header) - 1} coordinate columns is not a multiple of 3")
+    stated = []
+    for j in range(1, len(header)):
+        m = _UNIT_RE.match(header[j])
+        if m:
+            header[j] = m.group(1).rstrip()
+            stated.append(m.group(2).strip())
+    if stated and len(stated) != len(header) - 1:
+        raise MocapFormatError(src, 1, "some coordinate columns state a unit, e.g. '(mm)', and others do not")
+    if len(set(stated)) > 1:
+        raise MocapFormatError(src, 1, f"the coordinate columns state different units: {sorted(set(stated))}")
+    warnings = []
+    if stated:
+        if units is not None and units != stated[0]:
+            raise MocapFormatError(src, 1, f"the header says the unit is {stated[0]!r}, but {units!r} was given")
+        units = stated[0]
+    elif units is None:
+        units = "mm"
+        warnings.append("the header states no length unit; mm assumed")
     labels = []
     for j in range(1, len(header), 3):
         trio = header[j:j + 3]
@@ -425,7 +450,7 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str = "
         rate = (len(times) - 1) / span if span > 0 else 1.0
     try:
         return Markers(times, values[:, 1:].reshape(len(times), -1, 3), tuple(labels), rate,
-                       units=units, source=src, meta={"format": "csv"})
+                       units=units, source=src, meta={"format": "csv", "warnings": warnings})
     except InvalidSignalError as exc:
         raise MocapFormatError(src, None, str(exc)) from None
 

@@ -13,9 +13,10 @@ header always wins):
 ``SampleTimeFine`` (MT Manager ``//`` export)                10 kHz ticks; used only without a
                                                              counter (the counter and the stated
                                                              Update Rate are exact)
-``time``, ``timestamp`` without a unit                       s, or by magnitude when it can only
-                                                             be an epoch (>= 1e11: ms, >= 1e14:
-                                                             µs, >= 1e17: ns; recorded)
+``time``, ``timestamp`` without a unit                       s up to 4e9; above, by magnitude
+                                                             only when it is then an epoch of
+                                                             1e9–4e9 s (ms, µs or ns; recorded),
+                                                             else an error naming --time-unit
 ``elapsed (s)``, ``seconds_elapsed``                         s (used only when no other clock)
 ``PacketCounter``, ``Counter`` (uint16, wraps), ``Packet     a counter: needs a rate (file or
 number``, ``Frame``, ``Sample number``                       ``--rate``)
@@ -27,7 +28,8 @@ Orientation columns: a quaternion set is four columns sharing a prefix and namin
 column order, or numbering them (``q0..q3``, ``Quat_q0..3``, ``Element 1..4``: scalar-first unless
 ``scalar_last``). Without a quaternion: a rotation matrix ``Mat[i][j]`` (row i, column j) or Euler
 angles ``Roll, Pitch, Yaw`` (unit from the name, e.g. ``roll (rad)``; unit-less: degrees in Xsens
-exports, radians in phone sensor-logger files, which have ``seconds_elapsed``).
+exports, radians in phone sensor-logger files, which have ``seconds_elapsed``), and in Xsens files
+(Xsens / Movella DOT "Euler" exports) ``Euler_X, Euler_Y, Euler_Z`` = roll, pitch, yaw in degrees.
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ __all__ = [
     "find_column",
     "find_orientations",
     "choose_time",
+    "is_descriptor_row",
     "is_numeric_row",
     "norm",
     "parse_sep_line",
@@ -219,6 +222,12 @@ def is_numeric_row(fields: Sequence[str]) -> bool:
     return 2 * sum(_is_number(c) for c in cells) >= len(cells)
 
 
+def is_descriptor_row(fields: Sequence[str], key_cols: Sequence[int]) -> bool:
+    """A units / channel-type row under the header (``s,m/s^2,...``, ``CAL``): no number in any of
+    the time and orientation cells ``key_cols`` (the first cell alone says nothing: it may be a date)."""
+    return not any(_is_number(fields[c]) for c in key_cols if c < len(fields))
+
+
 def is_metadata_line(fields: Sequence[str], line: str) -> bool:
     """A comment (``//``, ``#``) or a ``Key:,value`` / ``Key: value`` preamble line."""
     s = line.lstrip()
@@ -301,17 +310,32 @@ def _unit_from_rows(col: int, rows: Sequence[Sequence[str]]) -> str | None:
     return None
 
 
-def _infer_unit(text: str) -> tuple[str, str | None]:
-    """Unit of a unit-less ``time`` column from its first value: an epoch in ms/µs/ns is too large
-    to be seconds (1e11 s is 3000 years)."""
+#: Plausible epochs in seconds since 1970 (2001-09 .. 2096-10): a unit-less clock is read by its
+#: magnitude only when one unit puts its first value in this range.
+EPOCH_RANGE = (1e9, 4e9)
+
+
+def _infer_unit(text: str, name: str, src: str, line: int) -> tuple[str, str | None]:
+    """Unit of a unit-less ``time`` column from its first value.
+
+    Up to 4e9 the value is read as seconds (an epoch in s, or a clock in s). A larger value is an
+    epoch in ms, µs or ns only when that unit gives 1e9–4e9 s since 1970; anything else (e.g. an
+    uptime clock in ns, ~1e13) has no safe reading and raises, naming ``--time-unit``.
+    """
     try:
         v = abs(float(text.strip().strip('"')))
     except ValueError:
         return "s", None
-    for limit, unit in ((1e17, "ns"), (1e14, "us"), (1e11, "ms")):
-        if v >= limit:
+    lo, hi = EPOCH_RANGE
+    if v <= hi:
+        return "s", None
+    for unit in ("ms", "us", "ns"):
+        if lo <= v / TIME_UNITS[unit] <= hi:
             return unit, f"unit {unit} inferred from the magnitude of the first value ({text.strip()}): an epoch"
-    return "s", None
+    raise MocapFormatError(
+        src, line, f"the unit of column {name.strip()!r} is unknown: its first value {text.strip()} is no epoch "
+        "in s, ms, us or ns (1e9-4e9 s since 1970), e.g. a clock since boot; give --time-unit s|ms|us|ns|counter",
+    )
 
 
 def find_column(names: Sequence[str], wanted: str) -> int | None:
@@ -349,7 +373,8 @@ def choose_time(names: Sequence[str], first_row: Sequence[str], unit_rows: Seque
             raise MocapFormatError(src, line, f"no column named {opts.time_column!r} (--time-column); "
                                    f"columns: {_listing(names)}")
         info = classify_time(names[i])
-        unit = opts.time_unit or (info.unit if info else None) or _unit_from_rows(i, unit_rows)
+        stated = _split_unit(_CHANNEL_SUFFIX_RE.sub("", norm(names[i])))[1]
+        unit = opts.time_unit or (info.unit if info else stated) or _unit_from_rows(i, unit_rows)
         note = None
         if unit is None and info is not None and info.kind == "counter":
             unit = "counter"
@@ -357,7 +382,7 @@ def choose_time(names: Sequence[str], first_row: Sequence[str], unit_rows: Seque
             if info is None:
                 raise MocapFormatError(src, line, f"the unit of column {names[i].strip()!r} is unknown: "
                                        "give --time-unit s|ms|us|ns|counter")
-            unit, note = _infer_unit(cell(i))
+            unit, note = _infer_unit(cell(i), names[i], src, line)
         return TimeColumn(i, names[i].strip(), unit, info.wrap if info else None, note)
 
     found = [(i, classify_time(n)) for i, n in enumerate(names)]
@@ -392,7 +417,7 @@ def choose_time(names: Sequence[str], first_row: Sequence[str], unit_rows: Seque
     else:
         unit = t.unit or _unit_from_rows(i, unit_rows)
         if unit is None:
-            unit, note = _infer_unit(cell(i))
+            unit, note = _infer_unit(cell(i), names[i], src, line)
     return TimeColumn(i, names[i].strip(), unit, t.wrap, note)
 
 
@@ -407,6 +432,9 @@ _ELEMENT_LETTER_RE = re.compile(r"(?P<c>[wxyz]) element")
 _ELEMENT_INDEX_RE = re.compile(r"element ?(?P<i>[1-4])")
 _MATRIX_RE = re.compile(r"(?P<pre>.*?)mat\s*\[(?P<r>[1-3])\]\s*\[(?P<c>[1-3])\]")
 _EULER_RE = re.compile(r"(?P<pre>.*?)(?P<a>roll|pitch|yaw)")
+#: Xsens DOT / Movella DOT ``Euler_X, Euler_Y, Euler_Z``: roll, pitch, yaw in degrees.
+_EULER_XYZ_RE = re.compile(r"(?P<pre>.*?)euler[ _]?(?P<c>[xyz])")
+_EULER_AXIS = {"x": "roll", "y": "pitch", "z": "yaw"}
 _SEPS = " _./-"
 
 
@@ -507,6 +535,9 @@ def _euler_sets(names: Sequence[str], xsens: bool, src: str, line: int) -> list[
                     nn, deg = nn[: -len(suf)], d
         if (m := _EULER_RE.fullmatch(nn)) and (m.group("pre") == "" or m.group("pre")[-1] in _SEPS):
             groups.setdefault(m.group("pre"), {}).setdefault(m.group("a"), []).append((i, deg))
+        elif xsens and (m := _EULER_XYZ_RE.fullmatch(nn)) and (m.group("pre") == "" or m.group("pre")[-1] in _SEPS):
+            # only in Xsens files: elsewhere Euler_X may be a heading (e.g. BNO055 x = heading)
+            groups.setdefault(m.group("pre") + "euler", {}).setdefault(_EULER_AXIS[m.group("c")], []).append((i, deg))
     out = []
     for key, angles in groups.items():
         if set(angles) != {"roll", "pitch", "yaw"} or any(len(v) > 1 for v in angles.values()):

@@ -3,9 +3,11 @@ the delimiter, the stated sample rate, and which columns hold time and orientati
 
 The header is the first line in which orientation columns are found (see
 :mod:`mocapkit.io.imu_columns`). Lines before it are the preamble: blank lines, an Excel ``sep=X``
-line, comments (``//``, ``#``), ``Key:,value`` metadata (read for a sample rate). Non-numeric rows
-right under the header (at most :data:`MAX_DESCRIPTOR_ROWS`: units, ``CAL``/``RAW``) are read for
-the time unit. OptiTrack's multi-row header is handled by :mod:`mocapkit.io.imu_vendors`.
+line, comments (``//``, ``#``), ``Key:,value`` metadata (read for a sample rate). Rows right
+under the header with no number in their time and orientation cells (at most
+:data:`MAX_DESCRIPTOR_ROWS`: units, ``CAL``/``RAW``) are read for the time unit and listed in the
+warnings; a row with a date or text in another column (``Date``, ``loggingTime(txt)``) is data.
+OptiTrack's multi-row header is handled by :mod:`mocapkit.io.imu_vendors`.
 """
 
 from __future__ import annotations
@@ -19,7 +21,10 @@ from mocapkit.io.imu_columns import (
     Orientation,
     TimeColumn,
     choose_time,
+    classify_time,
+    find_column,
     find_orientations,
+    is_descriptor_row,
     is_metadata_line,
     is_numeric_row,
     norm,
@@ -40,7 +45,8 @@ MAX_DESCRIPTOR_ROWS = 3
 EXPECTED = (
     "quaternion columns named w,x,y,z in any order (W X Y Z, W Element, Quat_W, qw, quaternion.w, "
     "<Sensor>/Orientation/Scalar X Y Z, ...) or numbered (q0..q3, Quat_q0..3, Element 1..4), a rotation "
-    "matrix Mat[1][1]..Mat[3][3], or Roll/Pitch/Yaw; name them with --quaternion-columns W,X,Y,Z"
+    "matrix Mat[1][1]..Mat[3][3], or Roll/Pitch/Yaw (Xsens: also Euler_X/Y/Z); name them with "
+    "--quaternion-columns W,X,Y,Z"
 )
 
 
@@ -91,6 +97,15 @@ def _is_xsens(names: Sequence[str], lines: Sequence[str], preamble: Sequence[int
     low = [norm(n) for n in names]
     return ("packetcounter" in low or "sampletimefine" in low or any(n.startswith(("acc_", "quat_")) for n in low)
             or any(lines[i].lstrip().startswith("//") for i in preamble))
+
+
+def _key_columns(names: Sequence[str], sensors: Sequence[Orientation], opts: ColumnOptions) -> list[int]:
+    """The orientation columns and the possible time columns (by name, or the one given)."""
+    cols = [c for o in sensors for c in o.cols]
+    if opts.time_column is not None:
+        t = find_column(names, opts.time_column)
+        return cols + ([t] if t is not None else [])
+    return cols + [i for i, n in enumerate(names) if classify_time(n) is not None]
 
 
 def find_layout(lines: Sequence[str], end: int, src: str, rate: float | None,
@@ -162,14 +177,18 @@ def find_layout(lines: Sequence[str], end: int, src: str, rate: float | None,
                                    f"{_short(lines[last_text].strip())}; looked for {EXPECTED}")
         raise MocapFormatError(src, end, "only comment or metadata lines: no header line and no data")
 
-    # rows under the header, then the first data row
+    # rows under the header: units / channel-type rows have no number in the time and orientation
+    # cells (a first column holding a date or text does not make a data row a units row)
+    key_cols = _key_columns(names, sensors, opts)
     descriptors: list[list[str]] = []
     j = header + 1
     while j < end and lines[j].strip() and len(descriptors) < MAX_DESCRIPTOR_ROWS:
         f = split_fields(lines[j], delim)
-        if is_numeric_row(f):
+        if not is_descriptor_row(f, key_cols):
             break
         descriptors.append([x.strip() for x in f])
+        warnings.append(f"line {j + 1} read as a units row, not data (no number in the time and orientation "
+                        f"columns): {_short(lines[j].strip())}")
         j += 1
     if j >= end and not probe:
         raise MocapFormatError(src, header + 1, "header only: no data rows after the header")

@@ -37,7 +37,8 @@ class RowReader:
     """Feed data lines with :meth:`feed`; :meth:`finish` returns times and per-sensor values.
 
     With ``online=True`` (a stream) :meth:`feed` returns the row's time in seconds and its
-    quaternions at once.
+    quaternions at once, and keeps only the first and the previous row's time: memory stays
+    constant however long the stream.
     """
 
     def __init__(self, layout: Layout, src: str, online: bool = False):
@@ -49,9 +50,14 @@ class RowReader:
         self.unit = layout.time.unit
         self.tname = layout.time.name
         self.wrap = layout.time.wrap
-        self.times: list[float] = []          # seconds (clock units)
-        self.counts: list[int] = []           # unwrapped integers (counters, wrapping clocks)
-        self.line_nos: list[int] = []
+        self.times: list[float] = []          # seconds (clock units); not kept online
+        self.counts: list[int] = []           # unwrapped integers (counters, wrapping clocks); not kept online
+        self.line_nos: list[int] = []         # not kept online
+        self._n = 0                           # rows fed
+        self._prev_ln = 0                     # line of the previous row
+        self._prev_t: float | None = None     # time of the previous row (s)
+        self._prev_u: int | None = None       # unwrapped count of the previous row
+        self._first_u = 0                     # unwrapped count of the first row
         self.rows: list[list[int]] = [[] for _ in layout.sensors]
         self.values: list[list[tuple[float, ...]]] = [[] for _ in layout.sensors]
         self.dropped = [0] * len(layout.sensors)
@@ -92,33 +98,33 @@ class RowReader:
     def _count(self, c: int, ln: int) -> int:
         if c < 0:
             raise MocapFormatError(self.src, ln, f"column {self.tname}: {c} is negative")
-        if not self.counts:
+        if self._prev_u is None:
             return c
         mod = self.wrap
         u = c + self._offset
-        prev_u = self.counts[-1]
+        prev_u = self._prev_u
         prev_raw = self._prev_raw
         if self._pending is not None:
             before_ln, before_raw, wrap_raw = self._pending
             if not (prev_u < u <= prev_u + (mod or 0) // 2):
                 raise MocapFormatError(
                     self.src, ln, f"{self.tname} drops from {before_raw} (line {before_ln}) to {wrap_raw} "
-                    f"(line {self.line_nos[-1]}) but line {ln} ({c}) does not continue from {wrap_raw}: "
+                    f"(line {self._prev_ln}) but line {ln} ({c}) does not continue from {wrap_raw}: "
                     "not a wrap-around",
                 )
             self._pending = None
         if u == prev_u:
-            raise MocapFormatError(self.src, ln, f"duplicate {self.tname} {c} on lines {self.line_nos[-1]} and {ln}")
+            raise MocapFormatError(self.src, ln, f"duplicate {self.tname} {c} on lines {self._prev_ln} and {ln}")
         if u < prev_u:
             step = c + (mod or 0) - prev_raw
             if mod and c < mod and prev_raw < mod and 1 <= step <= mod // 2:
                 self._offset = prev_u - prev_raw + mod
                 u = c + self._offset
-                self._pending = (self.line_nos[-1], prev_raw, c)
+                self._pending = (self._prev_ln, prev_raw, c)
             else:
                 raise MocapFormatError(
                     self.src, ln, f"{self.tname} must increase: line {ln} has {c}, less than {prev_raw} on line "
-                    f"{self.line_nos[-1]}" + (f" (not a wrap-around of a {mod}-value counter)" if mod else ""),
+                    f"{self._prev_ln}" + (f" (not a wrap-around of a {mod}-value counter)" if mod else ""),
                 )
         return u
 
@@ -141,17 +147,17 @@ class RowReader:
             raise MocapFormatError(self.src, ln, f"column {self.tname} is NaN")
         if math.isinf(t):
             raise MocapFormatError(self.src, ln, f"column {self.tname} is infinite ({_short(text)})")
-        if self.times:
-            prev = self.times[-1]
+        if self._prev_t is not None:
+            prev = self._prev_t
             if t == prev:
                 raise MocapFormatError(
                     self.src, ln, f"duplicate timestamp: line {ln} has {self.tname} {_short(text)} ({t!r} s), "
-                    f"the same time as line {self.line_nos[-1]} ({_short(self._prev_text)})",
+                    f"the same time as line {self._prev_ln} ({_short(self._prev_text)})",
                 )
             if t < prev:
                 raise MocapFormatError(
                     self.src, ln, f"timestamps must increase: line {ln} has {self.tname} {_short(text)} ({t!r} s), "
-                    f"earlier than line {self.line_nos[-1]} with {_short(self._prev_text)} ({prev!r} s)",
+                    f"earlier than line {self._prev_ln} with {_short(self._prev_text)} ({prev!r} s)",
                 )
         self._prev_text = text
         return t
@@ -160,15 +166,23 @@ class RowReader:
         if self.tcol is None:
             return
         text = fields[self.tcol].strip().strip('"')
+        t: float | None = None
         if self.unit == "counter" or self.wrap is not None:
             c = self._count(self._int(text, ln), ln)
-            self.counts.append(c)
+            if self._prev_u is None:
+                self._first_u = c
+            self._prev_u = c
+            if not self.online:
+                self.counts.append(c)
             self._prev_raw = int(text)
             if self.unit != "counter":
                 t = c / TIME_UNITS[self.unit]  # type: ignore[index]
-                self.times.append(t)
         else:
-            self.times.append(self._clock(text, ln))
+            t = self._clock(text, ln)
+        if t is not None:
+            self._prev_t = t
+            if not self.online:
+                self.times.append(t)
 
     # -- values -----------------------------------------------------------------------------------
     def _values(self, fields: list[str], ln: int, k: int) -> tuple[float, ...] | None:
@@ -200,8 +214,11 @@ class RowReader:
         fields = self._fields(line, ln)
         vals = [self._values(fields, ln, k) for k in range(len(self.lay.sensors))]
         self._time(fields, ln)
-        idx = len(self.line_nos)
-        self.line_nos.append(ln)
+        idx = self._n
+        self._n += 1
+        self._prev_ln = ln
+        if not self.online:
+            self.line_nos.append(ln)
         for k, v in enumerate(vals):
             if v is None:
                 self.dropped[k] += 1
@@ -210,18 +227,20 @@ class RowReader:
                 self.values[k].append(v)
         if not self.online:
             return None
-        return self._online_time(idx, ln), [None if v is None else self._convert(k, [v], [ln])[0][0]
-                                            for k, v in enumerate(vals)]
+        return self._online_time(idx, ln), [
+            None if v is None else v if self.lay.sensors[k].kind == "quaternion" else self._convert(k, [v], [ln])[0][0]
+            for k, v in enumerate(vals)
+        ]
 
     def _online_time(self, idx: int, ln: int) -> float:
         if self.unit not in ("counter", None):
-            return self.times[-1]
+            return self._prev_t  # type: ignore[return-value]
         rate = self.lay.rate
         if self.unit is None:
             return idx / rate  # type: ignore[operator]
-        if self._step is None and len(self.counts) >= 2:
-            self._step = self.counts[1] - self.counts[0]
-        t = (self.counts[-1] - self.counts[0]) / (rate * (self._step or 1))  # type: ignore[operator]
+        if self._step is None and idx >= 1:
+            self._step = self._prev_u - self._first_u  # type: ignore[operator]
+        t = (self._prev_u - self._first_u) / (rate * (self._step or 1))  # type: ignore[operator]
         if idx and not (t > self._last_online):
             raise MocapFormatError(self.src, ln, f"time {t!r} s from {self.tname} is not after the previous row")
         self._last_online = t

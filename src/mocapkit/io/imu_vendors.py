@@ -132,4 +132,6 @@ def vendor_label(names: Sequence[str], preamble: Sequence[str], sensors: Sequenc
         return "metawear"
     if "seconds_elapsed" in low:
         return "sensor-logger"
+    if "loggingtime(txt)" in low:
+        return "sensorlog"
     return "generic"

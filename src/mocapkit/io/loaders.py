@@ -3,6 +3,7 @@ TSV) or IMU orientation streams (CSV/text exports)."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 from mocapkit.errors import MocapFormatError
@@ -18,7 +19,7 @@ def kind_of(path: str | Path) -> str:
     """``"skeletal"``, ``"markers"``, ``"table"`` or ``"imu"`` (folders and everything else are IMU data).
 
     A ``.csv`` is ``"markers"`` when it is a Vicon Nexus export (first line ``Trajectories`` or
-    ``Devices``) or the wide CSV of :meth:`Markers.to_csv` (``time,<m>_x,<m>_y,<m>_z,...``); a
+    ``Devices``) or the wide CSV of :meth:`Markers.to_csv` (``time (s),<m>_x (mm),<m>_y (mm),...``); a
     ``.mot``/``.sto`` is ``"imu"`` when it holds OpenSense orientations (``DataType=Quaternion``),
     else ``"table"`` (one vector signal, e.g. joint angles).
     """
@@ -116,7 +117,7 @@ def _marker_csv(path: Path) -> str | None:
             head = fh.readline().lstrip("\ufeff").strip()
     except OSError:
         return None
-    cols = [c.strip().strip('"').lower() for c in head.split(",")]
+    cols = [re.sub(r"\s*\([^()]*\)$", "", c.strip().strip('"')).lower() for c in head.split(",")]  # drop "(mm)"
     if len(cols) >= 4 and cols[0] == "time" and (len(cols) - 1) % 3 == 0 and all(
             c.endswith("_" + "xyz"[k % 3]) for k, c in enumerate(cols[1:])):
         return "wide"

@@ -2,7 +2,9 @@
 
 The header is found exactly as for files (:mod:`mocapkit.io.imu_layout`: any layout with one sensor,
 the same overrides); the lines before the first data row are buffered, then every row is parsed and
-yielded at once. When the first line is numeric, the rows are headerless ``time,w,x,y,z`` (seconds).
+yielded at once (a data row is told from a units row by its time and orientation cells, so a first
+column holding a date is data; at most :data:`MAX_HEAD_LINES` lines are buffered). When the first
+line is numeric, the rows are headerless ``time,w,x,y,z`` (seconds).
 Counters become times with the first counter step (a file reader uses the most frequent step).
 Blank lines are skipped, and so are the frames in which an OptiTrack rigid body is lost (empty
 cells; the file reader counts them in ``meta["warnings"]``). Every problem raises
@@ -19,6 +21,7 @@ from mocapkit.io.imu_columns import (
     ColumnOptions,
     Orientation,
     TimeColumn,
+    find_orientations,
     is_metadata_line,
     is_numeric_row,
     sniff_delimiter,
@@ -27,7 +30,29 @@ from mocapkit.io.imu_columns import (
 from mocapkit.io.imu_layout import Layout, find_layout
 from mocapkit.io.imu_rows import RowReader
 
-__all__ = ["iter_samples"]
+__all__ = ["MAX_HEAD_LINES", "iter_samples"]
+
+#: Non-blank lines buffered before the first data row at most; then the header must be found (or an error).
+MAX_HEAD_LINES = 1000
+
+
+def _names_orientation(fields: list[str], opts: ColumnOptions, source: str, lineno: int) -> bool:
+    """May this line be the header (are orientation columns named in it)? A cheap gate for
+    :func:`_data_started`; an ambiguous header counts (the layout then reports it)."""
+    try:
+        return bool(find_orientations([f.strip() for f in fields], opts, source, lineno, xsens=True))
+    except MocapFormatError:
+        return True
+
+
+def _data_started(head: list[str], source: str, opts: ColumnOptions) -> bool:
+    """Does ``head`` hold a header and a first data row (which may start with a date or text)?
+    ``True`` as well when the layout is wrong: the caller then reads it and reports the error."""
+    try:
+        lay = find_layout(head, len(head), source, None, opts, probe=True)
+    except MocapFormatError:
+        return True
+    return lay.data_index < len(head)
 
 
 def _headerless(line: str, delim: str | None, source: str, lineno: int, rate: float | None,
@@ -58,6 +83,8 @@ def iter_samples(
     head: list[str] = []
     reader: RowReader | None = None
     seen_text = False
+    header_seen = False
+    n_text = 0      # non-blank lines buffered
     for lineno, raw in enumerate(lines, start=1):
         line = raw.rstrip("\r\n")
         if lineno == 1:
@@ -66,10 +93,18 @@ def iter_samples(
             head.append(line)
             if not line.strip():
                 continue
+            n_text += 1
             fields = split_fields(line, sniff_delimiter(line))
-            if is_metadata_line(fields, line) or not is_numeric_row(fields):
+            if is_metadata_line(fields, line):
                 seen_text = True
                 continue
+            if not is_numeric_row(fields) and n_text <= MAX_HEAD_LINES:
+                if not header_seen:     # a title or the header line
+                    header_seen = _names_orientation(fields, opts, source, lineno)
+                    seen_text = True
+                    continue
+                if not _data_started(head, source, opts):   # a units row under the header
+                    continue
             if not seen_text:
                 lay = _headerless(line, sniff_delimiter(line), source, lineno, rate, opts)
             else:
