@@ -209,15 +209,18 @@ def test_additive_solver_equals_brute_force(seed):
         Y[rng.choice(n, 2, replace=False)] = np.nan
     lam = float(rng.uniform(0.01, 5.0))
     valid = ~np.isnan(Y).any(axis=1)
+    # the shortest chunk allowed: order + 1 (default) or more valid samples (the automatic mode's order + 2)
+    msize = order + 1 + seed % 3
     best = np.inf
     for k in range(n):
         for ks in itertools.combinations(range(1, n), k):
             kn = [0, *ks, n]
-            if any(valid[a:b].sum() < order + 1 for a, b in zip(kn[:-1], kn[1:])):
+            if k and any(valid[a:b].sum() < msize for a, b in zip(kn[:-1], kn[1:])):
                 continue
             best = min(best, build(t, Y, kn, order, 0.0).ssr + lam * k)
-    r = solve_additive(t, Y, order, lam)
+    r = solve_additive(t, Y, order, lam, min_size=None if seed % 3 == 0 else msize)
     assert r.ssr + lam * r.n_knots == pytest.approx(best, rel=1e-9, abs=1e-12)
+    assert all(valid[pc.i0:pc.i1].sum() >= min(msize, valid.sum()) for pc in r.pieces)
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -403,12 +406,67 @@ def test_auto_noise_free_piecewise_parabola_gets_its_true_knots_without_warning(
     r = fit(t, y, 2)
     assert list(r.parts[0].knots) == [0, 100, 200, 300]
     np.testing.assert_allclose(r.evaluate(t)[:, 0], y, atol=1e-9)
-    # pieces of exactly order + 1 samples: the true fit leaves no residual and no degree of freedom
-    # (its long-run variance is 0: infinitely significant, not a division by zero)
+    # pieces of exactly order + 1 samples are interpolated whatever the data: the automatic mode keeps
+    # one residual degree of freedom per chunk, so it cannot tell them from noise and puts no knot;
+    # an explicit K still can
     t6 = np.arange(6) / 100.0
     y6 = np.r_[np.polyval([3.0, -1.0, 2.0], t6[:3]), np.polyval([-2.0, 4.0, 1.0], t6[:3])]
-    r6 = fit(t6, y6, 2)
-    assert list(r6.parts[0].knots) == [0, 3, 6]
+    assert fit(t6, y6, 2).n_knots == 0
+    assert list(fit(t6, y6, 2, 1e-3).parts[0].knots) == [0, 3, 6]
+    # pieces of order + 2 samples (one residual degree of freedom each, exactly fitted): found
+    t8 = np.arange(8) / 100.0
+    y8 = np.r_[np.polyval([3.0, -1.0, 2.0], t8[:4]), np.polyval([-2.0, 4.0, 1.0], t8[:4])]
+    assert list(fit(t8, y8, 2).parts[0].knots) == [0, 4, 8]
+
+
+def _short_pieces(rng, length, pieces, D):
+    """Noise-free piecewise parabola (mm-like scale), every piece in its own time origin."""
+    tau = np.arange(length) / 100.0
+    y = np.concatenate([np.stack([np.polyval(rng.normal(size=3) * [100.0, 10.0, 1.0], tau) for _ in range(D)], 1)
+                        for _ in range(pieces)])
+    return np.arange(length * pieces) / 100.0, y, list(range(0, length * pieces + 1, length))
+
+
+@pytest.mark.parametrize("length,D,seed", [(5, 1, s) for s in range(4)] + [(5, 3, 0), (6, 1, 0), (12, 3, 0)])
+def test_auto_noise_free_short_pieces_get_every_knot(length, D, seed):
+    """Pieces of 5 samples: most 3rd differences straddle a knot, so σ̂ (and the search floor) is far
+    above the true noise (0); the search goes on down to the residual of its finest fit and finds
+    every knot."""
+    t, y, true = _short_pieces(np.random.default_rng(50 + seed), length, 12, D)
+    r = fit(t, y, 2)
+    assert list(r.parts[0].knots) == true
+    np.testing.assert_allclose(r.evaluate(t), y, atol=1e-6)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_auto_six_noisy_samples_of_one_parabola_get_no_knot_in_1d_and_3d(seed):
+    """Six samples (a marker seen for 20 ms): the only split is into two exactly interpolated
+    parabolas of three samples (zero residual, so an unbounded significance), which the automatic
+    mode must not take — in 1-D and 3-D alike. Also with 7 samples and with a NaN row."""
+    rng = np.random.default_rng(seed)
+    for n in (6, 7):
+        t = np.arange(n) / 300.0
+        clean = np.stack([np.polyval(rng.normal(0, [2000.0, 500.0, 100.0]), t) for _ in range(3)], 1)
+        Y = clean + rng.normal(0, 0.5, (n, 3))
+        for y in (Y, Y[:, 2], Y[:, :1]):
+            r = fit(t, y, 2)
+            assert r.n_knots == 0 and len(r.pieces) == 1 and r.loss > 0
+    Y8 = np.vstack([Y, Y[-1:] + 1.0])
+    Y8[3] = np.nan  # 7 valid samples: still no split into two chunks of 4
+    assert fit(np.arange(8) / 300.0, Y8, 2).n_knots == 0
+
+
+def test_auto_juggling_markers_seen_for_six_frames(shared_data):
+    """unnamed_18 and unnamed_21 of the shared take have 6 valid samples each: no knot, 3-D and Z."""
+    import mocapkit
+
+    m = mocapkit.load(shared_data / "juggling" / "5-ball-juggling-qualisys-300hz.tsv")
+    for name in ("unnamed_18", "unnamed_21"):
+        P = m.positions[:, m.labels.index(name), :]
+        assert int(np.isfinite(P).all(axis=1).sum()) == 6
+        for y in (P, P[:, 2]):
+            r = fit(m.times, y, 2)
+            assert r.n_knots == 0 and r.loss > 0
 
 
 @pytest.mark.filterwarnings("error")

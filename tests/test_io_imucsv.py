@@ -1192,3 +1192,115 @@ def test_stream_without_header_stops_buffering() -> None:
     with pytest.raises(MocapFormatError, match="no orientation columns"):
         list(iter_samples(lines(), "<gen>"))
     assert len(read) <= MAX_HEAD_LINES + 1
+
+
+# --------------------------------------------------------------------------------------------------
+# plausibility of a guessed time unit; the order of numbered quaternion columns
+# --------------------------------------------------------------------------------------------------
+
+def _ms_rows(step: float, n: int = 6) -> str:
+    rows = [f"{k * step:g},{math.cos(0.05 * k)!r},{math.sin(0.05 * k)!r},0,0" for k in range(n)]
+    return "time,w,x,y,z\n" + "\n".join(rows) + "\n"
+
+
+def _rate_warnings(sig: Signal) -> list[str]:
+    return [w for w in sig.meta["warnings"] if "has no unit" in w]
+
+
+def test_unitless_time_in_ms_warns_and_keeps_the_data(tmp_path: Path) -> None:
+    p = _write(tmp_path / "ms.csv", _ms_rows(10))          # 100 Hz in milliseconds, header says "time"
+    sig = read_imu_csv(p)
+    (w,) = _rate_warnings(sig)
+    assert "'time'" in w and "0.1 Hz" in w and "--time-unit" in w
+    assert sig.times.tolist() == [0.0, 10.0, 20.0, 30.0, 40.0, 50.0]   # read as given, never rescaled
+    fixed = read_imu_csv(p, time_unit="ms")
+    assert _rate_warnings(fixed) == [] and fixed.times == pytest.approx([0, 0.01, 0.02, 0.03, 0.04, 0.05])
+    assert np.array_equal(fixed.values, sig.values)
+
+
+@pytest.mark.parametrize("step, warns", [
+    (0.01, False),      # 100 Hz in seconds
+    (1 / 2000, False),  # 2 kHz in seconds
+    (0.25, False),      # 4 Hz: slow but possible
+    (1.0, True),        # a 1 kHz recording in ms read as seconds: 1 Hz
+    (1e-5, True),       # 100 kHz: no orientation sensor
+])
+def test_unitless_time_rate_bounds(tmp_path: Path, step: float, warns: bool) -> None:
+    sig = read_imu_csv(_write(tmp_path / "t.csv", _ms_rows(step)))
+    assert bool(_rate_warnings(sig)) is warns
+
+
+def test_stated_time_unit_is_not_second_guessed(tmp_path: Path) -> None:
+    """'Time (s)' at 0.1 Hz, or a units row saying s, is what the file says: no plausibility warning."""
+    p = _write(tmp_path / "slow.csv", _ms_rows(10).replace("time,", "Time (s),", 1))
+    assert read_imu_csv(p).meta["warnings"] == []
+    p = _write(tmp_path / "units.csv", _ms_rows(10).replace("\n", "\ns,,,,\n", 1))
+    assert _rate_warnings(read_imu_csv(p)) == []
+
+
+def _imu_files(shared_data: Path, tests_data: Path) -> list[Path]:
+    files = [f for root in (shared_data / "imu", tests_data / "imu") for f in sorted(root.rglob("*"))
+             if f.suffix in (".csv", ".txt") and f.name != "Inertial.csv"]
+    assert len(files) >= 25
+    return files
+
+
+def _load_any(f: Path) -> dict[str, Signal]:
+    try:
+        return load_signals(f)
+    except MocapFormatError as exc:     # counters or no time column: the file states no rate
+        assert "--rate" in str(exc)
+        return load_signals(f, rate=100.0)
+
+
+def test_real_files_give_no_rate_warning(shared_data: Path, tests_data: Path) -> None:
+    for f in _imu_files(shared_data, tests_data):
+        for sig in _load_any(f).values():
+            assert _rate_warnings(sig) == [], f
+
+
+def test_numbered_columns_state_their_order(tests_data: Path, tmp_path: Path) -> None:
+    """q0..q3 / Element 1..4 do not say which one is w: meta["conversion"] says how they were read."""
+    mt = read_imu_csv(tests_data / "imu" / "xsens-mtmanager" / "MT46_01-000_00B42D4D.txt")
+    assert mt.meta["conversion"] == ("numbered columns Quat_q0, Quat_q1, Quat_q2, Quat_q3 read as w,x,y,z "
+                                     "(scalar first); use --scalar-last if they hold x,y,z,w")
+    legacy = read_imu_csv(tests_data / "imu" / "xio" / "legacy_QuaternionData.csv", rate=100.0)
+    assert "Element 1, Element 2, Element 3, Element 4 read as w,x,y,z" in legacy.meta["conversion"]
+    named = read_imu_csv(tests_data / "imu" / "xio" / "ximu3_Quaternion.csv")
+    assert named.meta["conversion"] is None
+    # a scalar-last rewrite, read with --scalar-last, gives the same quaternions and says so
+    q = mt.values
+    text = "Sample rate: 100\nq0,q1,q2,q3\n" + "".join(f"{x!r},{y!r},{z!r},{w!r}\n" for w, x, y, z in q.tolist())
+    back = read_imu_csv(_write(tmp_path / "last.csv", text), scalar_last=True)
+    assert np.array_equal(back.values, q)
+    assert back.meta["conversion"] == "numbered columns q0, q1, q2, q3 read as x,y,z,w (--scalar-last)"
+    assert back.meta["orientation_columns"] == ["q3", "q0", "q1", "q2"]
+
+
+def test_why_the_values_cannot_tell_the_scalar(shared_data: Path) -> None:
+    """The reason no order check is made (imucsv docstring): on a real scalar-first file the scalar
+    crosses zero while a vector part keeps its sign, which a sign rule ("the scalar keeps its sign")
+    would read as scalar-last."""
+    sig = read_imu_csv(shared_data / "imu" / "xio-lower-body" / "right-lower-leg" / "Quaternion.csv")
+    w, z = sig.values[:, 0], sig.values[:, 3]
+    assert w.min() < -0.1 and w.max() > 0.1                 # W takes both signs (the walker turns)
+    assert np.all(z < 0) and np.abs(z).min() > 0.2         # Z keeps one sign, far from zero
+
+
+@pytest.mark.parametrize("command", [
+    ["compress", "{f}", "-t", "1e-3", "--stats-only"],
+    ["decompress", "{pts}", "-o", "{out}", "--times-from", "{f}"],
+    ["sweep", "{f}", "--thresholds", "3", "--out", "{out_dir}"],
+])
+def test_cli_prints_reader_warnings(tmp_path: Path, command: list[str]) -> None:
+    import subprocess
+    import sys
+
+    f = _write(tmp_path / "ms.csv", _ms_rows(10, n=40))
+    pts = _write(tmp_path / "pts.csv", "time,w,x,y,z\n0,1,0,0,0\n390,1,0,0,0\n")
+    args = [a.format(f=f, pts=pts, out=tmp_path / "out.csv", out_dir=tmp_path / "sw") for a in command]
+    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", *args], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    lines = [ln for ln in r.stderr.splitlines() if ln.startswith(f"warning: {f}: column 'time' has no unit")]
+    assert len(lines) == 1 and "0.1 Hz" in lines[0] and "--time-unit" in lines[0], r.stderr
+    assert "warning" not in r.stdout

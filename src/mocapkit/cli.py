@@ -107,6 +107,16 @@ def _columns(time_column, quaternion_columns, scalar_last, time_unit) -> dict:
     """The IMU header overrides as keyword arguments of load_signals / iter_samples."""
     return {"time_column": time_column, "quaternion_columns": quaternion_columns, "scalar_last": scalar_last,
             "time_unit": time_unit}
+
+
+def _warn_signals(signals) -> None:
+    """Print each loaded signal's ``meta["warnings"]`` to stderr, once per file and text."""
+    seen = set()
+    for sig in signals.values():
+        for w in sig.meta.get("warnings", []):
+            if (sig.source, w) not in seen:
+                seen.add((sig.source, w))
+                err.print(f"warning: {sig.source}: {w}", markup=False, highlight=False)
 MethodOpt = Annotated[Method, typer.Option("--method", "-m", help="PLA method.")]
 ThresholdOpt = Annotated[
     Optional[float],
@@ -247,6 +257,7 @@ def compress(
 
     _one_control(threshold, target_icr, max_angle)
     signals = load_signals(input, rate=rate, **_columns(time_column, quaternion_columns, scalar_last, time_unit))
+    _warn_signals(signals)
     folder_mode = input.is_dir() or len(signals) > 1  # one CSV per sensor
     what = "a folder" if input.is_dir() else f"a file of {len(signals)} sensors"
     if folder_mode and output is not None and output.exists() and not output.is_dir():
@@ -831,6 +842,7 @@ def decompress(
             raise InvalidParameterError(
                 f"{times_from} holds {len(originals)} signals ({', '.join(list(originals)[:6])}): pick the one the "
                 "points came from with --quaternion-columns (e.g. its W,X,Y,Z column names)")
+        _warn_signals(originals)
         t = next(iter(originals.values())).times
     else:
         if not (math.isfinite(rate) and rate > 0):
@@ -943,6 +955,7 @@ def sweep(
         ).items():
             key = name if name not in signals else f"{p.stem}/{name}"
             signals[key] = sig
+    _warn_signals(signals)
     rows = run_sweep(signals, n_thresholds=n_thresholds, max_segment_length=max_segment_length, progress=err)
     paths = write_outputs(rows, out)
     if all(s.kind == "quaternion" for s in signals.values()):

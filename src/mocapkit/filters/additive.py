@@ -5,8 +5,9 @@ additive form ``SSR + λ·N_k`` does not, so its optimum is an optimal-partition
 ``F(e) = min_s F(s) + SSR[s, e) + λ`` (``F(0) = −λ``: the first chunk carries no knot), solved exactly
 with PELT's pruning (Killick, Fearnhead and Eckley 2012): the SSR of least-squares polynomial fits is
 superadditive, ``SSR[s, e') ≥ SSR[s, e) + SSR[e, e')``, so a start ``s`` with ``F(s) + SSR[s, e) > F(e)``
-can never again be optimal — once at least ``O + 1`` valid samples follow ``e`` (the shortest chunk
-allowed). Every candidate start keeps its own QR factorisation, updated by one Givens rotation per
+can never again be optimal — once at least ``m`` valid samples follow ``e`` (``m``, the shortest chunk
+allowed, is ``O + 1`` by default; the automatic mode asks for ``O + 2``, see
+:mod:`mocapkit.filters.penalty`). Every candidate start keeps its own QR factorisation, updated by one Givens rotation per
 sample (as in :mod:`mocapkit.filters.chunks`); work is O(n·L·O²) with L the typical chunk length, O(n²)
 for a signal without any knot.
 
@@ -26,7 +27,7 @@ from mocapkit.filters.chunks import PiecewisePolynomial, as_2d, build
 
 
 @numba.njit(cache=True)
-def _pelt(t, Y, order, lam, scale):
+def _pelt(t, Y, order, lam, scale, msize):
     n = t.shape[0]
     D = Y.shape[1]
     p = order + 1
@@ -94,21 +95,21 @@ def _pelt(t, Y, order, lam, scale):
                     st[orss + d] += y[d] * y[d]
                     tot += st[orss + d]
                 ssr_c[c] = tot
-            if valid[e] - valid[s] >= p:
+            if valid[e] - valid[s] >= msize:
                 val = F[s] + ssr_c[c] + lam
                 if val < best:
                     best = val
                     barg = s
         F[e] = best
         arg[e] = barg
-        # prune: F(s) + SSR[s, e) > F(e), effective once O + 1 valid samples follow that e
+        # prune: F(s) + SSR[s, e) > F(e), effective once msize valid samples follow that e
         k = 0
         for c in range(m):
             keep = True
             if death[c] >= 0:
-                if valid[e] - valid[death[c]] >= p:
+                if valid[e] - valid[death[c]] >= msize:
                     keep = False
-            elif best < np.inf and valid[e] - valid[cs[c]] >= p and F[cs[c]] + ssr_c[c] > best:
+            elif best < np.inf and valid[e] - valid[cs[c]] >= msize and F[cs[c]] + ssr_c[c] > best:
                 death[c] = e
             if keep:
                 if k != c:
@@ -128,9 +129,11 @@ def _pelt(t, Y, order, lam, scale):
     return F, arg
 
 
-def solve_additive(t, y, order: int = 2, knot_cost: float = 1.0, penalty: float | None = None) -> PiecewisePolynomial:
+def solve_additive(t, y, order: int = 2, knot_cost: float = 1.0, penalty: float | None = None,
+                   min_size: int | None = None) -> PiecewisePolynomial:
     """Global optimum of ``SSR + λ·N_k`` (``λ = knot_cost``, in squared signal units) over all knot
-    sets whose chunks hold at least ``order + 1`` valid samples.
+    sets whose chunks hold at least ``min_size`` valid samples (default and least ``order + 1``; a
+    signal with fewer than ``min_size`` but at least ``order + 1`` valid samples is one chunk).
 
     The returned :class:`PiecewisePolynomial` carries ``penalty`` (Eq. 2's ``K`` used for its
     ``loss``; default ``λ / (2·sqrt(SSR))``, the ``K`` whose trade-off equals ``λ`` at this solution).
@@ -139,12 +142,17 @@ def solve_additive(t, y, order: int = 2, knot_cost: float = 1.0, penalty: float 
     if order < 0 or not (knot_cost >= 0 and math.isfinite(knot_cost)):
         raise InvalidParameterError("order must be >= 0 and the knot cost a finite number >= 0")
     n = t.shape[0]
-    if int((~np.isnan(Y).any(axis=1)).sum()) < order + 1:
+    nv = int((~np.isnan(Y).any(axis=1)).sum())
+    if nv < order + 1:
         raise InvalidParameterError(f"need at least {order + 1} valid samples for order {order}")
+    msize = order + 1 if min_size is None else int(min_size)
+    if msize < order + 1:
+        raise InvalidParameterError(f"min_size must be >= order + 1 = {order + 1}, got {min_size!r}")
+    msize = min(msize, nv)
     dt = float(np.median(np.diff(t))) if n > 1 else 1.0
-    F, arg = _pelt(t, Y, order, float(knot_cost), 64.0 * dt)
+    F, arg = _pelt(t, Y, order, float(knot_cost), 64.0 * dt, msize)
     if not np.isfinite(F[n]):
-        raise InvalidParameterError(f"no chunking with {order + 1} valid samples per chunk")
+        raise InvalidParameterError(f"no chunking with {msize} valid samples per chunk")
     knots = [n]
     e = n
     while e > 0:

@@ -28,7 +28,17 @@ gain is a few ``σ²_LR``: low ratio); the ratio peaks at the knee of ``S(k)`` w
 residual, i.e. what a knot would have to gain to explain everything: white or correlated noise, a
 static marker's drift (no structure, a residual of ~white noise: thousands) keep ``k = 0``; a
 constant (``S(0) = 0``) gets no knot. A count whose fit leaves no residual at all (a noise-free
-piecewise polynomial; ``σ²_LR = 0``) is infinitely significant: the fewest such knots win. Within the chosen count's exact range of ``λ`` (its two hull
+piecewise polynomial; ``σ²_LR = 0``) is infinitely significant: the fewest such knots win.
+
+Every chunk keeps a residual degree of freedom. A chunk of exactly ``O + 1`` valid samples is
+interpolated: its residual is 0 whatever the data, so it says nothing about the noise and a knot that
+creates it would look infinitely significant (six noisy samples of one parabola, cut into two exact
+parabolas of three samples each). The automatic mode therefore only considers chunks of at least
+``O + 2`` valid samples (``MIN_RESIDUAL_DOF = 1`` per component), the same rule for 1-D and 3-D
+signals; a residual of zero then means that the data really are piecewise polynomial. Pieces of
+``O + 1`` samples are left to an explicit ``K``. The least count is a necessary condition, not a small
+sample test: with fewer than about ``4·(O + 2)`` samples the residual variance of a fit rests on a few
+degrees of freedom and a knot may still win by chance. Within the chosen count's exact range of ``λ`` (its two hull
 slopes, found by intersection as in CROPS, Haynes, Eckley and Fearnhead 2017) ``λ`` is the geometric
 centre: the most robust cost for that segmentation.
 
@@ -36,7 +46,12 @@ What bounds the search. Costs below the white-noise floor ``(O + 1)·D·σ̂²``
 ``(O + 1)``-th differences, :func:`noise_sigma`; or 1e-12 of the signal's magnitude, for rounding) are
 not searched. ``k(λ)`` is measured on a geometric grid (factor ``step``, default 2) from the lower end
 of ``k = 0``'s range (exact, by Dinkelbach's iteration from the best single knot's gain) down to the
-floor: about ``log2(S(0)/floor)`` exact solutions.
+floor: about ``log2(S(0)/floor)`` exact solutions. When knots are closer than about ``2(O + 1)``
+samples most differences straddle one and σ̂ is inflated (a noise-free signal with 5-sample pieces);
+then the finest fit searched leaves a residual variance (SSR over its degrees of freedom) below σ̂²/4
+— on white or AR(1) noise it stays near σ̂² (measured 0.5–0.95) — and the grid goes on down to the
+floor of that residual, until it no longer drops by 4. Pieces of 4 samples (O = 2) are still often
+missed.
 
 Why it does not depend on the recording's length. Eq. 2's ``sqrt(SSR)`` grows like ``σ√n``, so a
 knot that lowers the SSR by ``Δ`` lowers ``sqrt(SSR)`` by about ``Δ/(2σ√n)``: the same ``K`` buys fewer
@@ -62,8 +77,7 @@ import numpy as np
 from scipy.special import comb
 
 from mocapkit.filters.additive import solve_additive
-from mocapkit.filters.chunks import PiecewisePolynomial, chunk_ssr
-from mocapkit.filters.ppa import _best_split
+from mocapkit.filters.chunks import PiecewisePolynomial, chunk_ssr, ssr_scan
 
 
 def noise_sigma(y: np.ndarray, order: int = 2) -> float:
@@ -111,8 +125,13 @@ class KnotCostChoice:
 Parts = Sequence[tuple[np.ndarray, np.ndarray]]
 
 
+MIN_RESIDUAL_DOF = 1
+"""Residual degrees of freedom per component that every chunk keeps in the automatic mode (module
+docstring): chunks hold at least ``order + 1 + MIN_RESIDUAL_DOF`` valid samples."""
+
+
 def _solve(parts: Parts, order: int, lam: float) -> tuple[int, float, tuple[PiecewisePolynomial, ...]]:
-    sols = tuple(solve_additive(t, Y, order, lam) for t, Y in parts)
+    sols = tuple(solve_additive(t, Y, order, lam, min_size=order + 1 + MIN_RESIDUAL_DOF) for t, Y in parts)
     return int(sum(s.n_knots for s in sols)), float(sum(s.ssr for s in sols)), sols
 
 
@@ -124,7 +143,8 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
     ----------
     parts
         ``[(t (N,), Y (N, D))]``: the gap-free parts of one signal (λ is shared; knots and SSR are
-        summed over the parts). Every part must hold at least ``order + 1`` valid samples.
+        summed over the parts). Every part must hold at least ``order + 1`` valid samples; every chunk
+        of the result holds at least ``order + 1 + MIN_RESIDUAL_DOF`` (a shorter part is one chunk).
     order
         Polynomial order ``O``.
     step
@@ -139,7 +159,8 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
     sigma2 = float(np.average(np.square(sig), weights=w)) if sum(w) else 0.0
     # below the white noise, or below rounding (1e-12 of the signal's magnitude per sample)
     size = max(float(np.nanmax(np.abs(Y))) if np.isfinite(Y).any() else 0.0 for _, Y in parts)
-    floor = max((order + 1) * D * sigma2, sum(w) * D * (1e-12 * size) ** 2)
+    rounding = sum(w) * D * (1e-12 * size) ** 2
+    floor = max((order + 1) * D * sigma2, rounding)
     cache: dict[float, tuple[int, float, tuple]] = {}
 
     def solve(lam: float):
@@ -155,9 +176,7 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
     # of the best single knot (a lower bound of it)
     lam0 = floor
     for t, Y in parts:
-        s, v = _best_split(t, Y, 0, t.shape[0], order)
-        if s is not None:
-            lam0 = max(lam0, chunk_ssr(t, Y, 0, t.shape[0], order) - v)
+        lam0 = max(lam0, chunk_ssr(t, Y, 0, t.shape[0], order) - _best_split_ssr(t, Y, order))
     for _ in range(100):
         k, ssr, _ = solve(lam0)
         if k == 0 or ssr + lam0 * k >= S0 * (1 - 1e-12):
@@ -167,9 +186,19 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
     # k > 0 (a tie with k = 0: all of its knots gain exactly lam0, e.g. two equal steps)
     grid = [(lam0, solve(lam0)[0])]
     lam = lam0 / step
-    while lam >= floor:
-        grid.append((lam, solve(lam)[0]))
-        lam /= step
+    while True:
+        while lam >= floor:
+            grid.append((lam, solve(lam)[0]))
+            lam /= step
+        # σ̂ is inflated when knots are closer than about 2(O + 1) samples (then most (O+1)-th
+        # differences straddle one): the finest fit searched shows it by a residual variance far below
+        # σ̂², and the search goes on down to the floor of that residual
+        _, ssr_f, sols_f = solve(grid[-1][0])
+        dof_f = _residual_dof(parts, sols_f)
+        fine = max((order + 1) * D * ssr_f / dof_f if dof_f > 0 else 0.0, rounding)
+        if not fine < floor / 4.0:
+            break
+        floor = fine
     top: dict[int, float] = {0: lam0}  # the largest grid λ giving k: about the gain of k's weakest knot
     for la, k in grid:
         top[k] = max(top.get(k, 0.0), la)
@@ -197,9 +226,29 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
     return KnotCostChoice(lam, k, (lo, hi), floor, sols, path, sig[best])
 
 
+def _best_split_ssr(t: np.ndarray, Y: np.ndarray, order: int) -> float:
+    """Least SSR of two chunks of at least ``order + 1 + MIN_RESIDUAL_DOF`` valid samples each
+    (``inf`` if the part is too short to split)."""
+    n = t.shape[0]
+    fwd, cf = ssr_scan(t, Y, 0, n, order, True)  # fwd[m] = SSR[0, m)
+    bwd, cb = ssr_scan(t, Y, 0, n, order, False)  # bwd[m] = SSR[n - m, n)
+    m = np.arange(1, n)
+    ok = (cf[m] >= order + 1 + MIN_RESIDUAL_DOF) & (cb[n - m] >= order + 1 + MIN_RESIDUAL_DOF)
+    return float((fwd[m] + bwd[n - m])[ok].min()) if ok.any() else math.inf
+
+
+def _residual_dof(parts: Parts, sols: Sequence[PiecewisePolynomial]) -> int:
+    """Residual degrees of freedom of a fit: valid samples minus coefficients, per piece and component."""
+    dof = 0
+    for (_, Y), sol in zip(parts, sols):
+        ok = np.isfinite(Y).all(axis=1)
+        dof += sum(max(int(ok[pc.i0:pc.i1].sum()) - pc.coeffs.shape[0], 0) for pc in sol.pieces) * Y.shape[1]
+    return dof
+
+
 def _significance(gain: float, lrv: float) -> float:
     """``gain / σ²_LR`` as a Python float; a fit that leaves no residual (``σ²_LR = 0``: every piece
-    exact, or no degree of freedom left) makes any positive gain infinitely significant."""
+    exact) makes any positive gain infinitely significant."""
     gain, lrv = float(gain), float(lrv)
     if lrv > 0.0:
         return gain / lrv

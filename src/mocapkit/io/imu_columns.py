@@ -16,7 +16,9 @@ header always wins):
 ``time``, ``timestamp`` without a unit                       s up to 4e9; above, by magnitude
                                                              only when it is then an epoch of
                                                              1e9–4e9 s (ms, µs or ns; recorded),
-                                                             else an error naming --time-unit
+                                                             else an error naming --time-unit;
+                                                             a rate outside 2 Hz-10 kHz is warned
+                                                             of (:mod:`~mocapkit.io.imu_rows`)
 ``elapsed (s)``, ``seconds_elapsed``                         s (used only when no other clock)
 ``PacketCounter``, ``Counter`` (uint16, wraps), ``Packet     a counter: needs a rate (file or
 number``, ``Frame``, ``Sample number``                       ``--rate``)
@@ -144,6 +146,7 @@ class TimeColumn:
     unit: str | None            # "s", "ms", "us", "ns", "counter" or None (row index)
     wrap: int | None = None      # modulus of a device clock/counter that wraps around
     note: str | None = None      # how the unit was decided, when it was not stated
+    stated: bool = True          # False: no unit in the name, a units row or --time-unit (guessed)
 
 
 @dataclass
@@ -383,6 +386,7 @@ def choose_time(names: Sequence[str], first_row: Sequence[str], unit_rows: Seque
                 raise MocapFormatError(src, line, f"the unit of column {names[i].strip()!r} is unknown: "
                                        "give --time-unit s|ms|us|ns|counter")
             unit, note = _infer_unit(cell(i), names[i], src, line)
+            return TimeColumn(i, names[i].strip(), unit, info.wrap, note, stated=False)
         return TimeColumn(i, names[i].strip(), unit, info.wrap if info else None, note)
 
     found = [(i, classify_time(n)) for i, n in enumerate(names)]
@@ -410,6 +414,7 @@ def choose_time(names: Sequence[str], first_row: Sequence[str], unit_rows: Seque
         )
     i, t = top[0]
     note = None
+    stated = True
     if opts.time_unit is not None:
         unit = opts.time_unit
     elif t.kind == "counter":
@@ -418,7 +423,8 @@ def choose_time(names: Sequence[str], first_row: Sequence[str], unit_rows: Seque
         unit = t.unit or _unit_from_rows(i, unit_rows)
         if unit is None:
             unit, note = _infer_unit(cell(i), names[i], src, line)
-    return TimeColumn(i, names[i].strip(), unit, t.wrap, note)
+            stated = False
+    return TimeColumn(i, names[i].strip(), unit, t.wrap, note, stated)
 
 
 # ------------------------------------------------------------------------------------------------

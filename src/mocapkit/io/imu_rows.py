@@ -10,6 +10,10 @@ Counters become times with the sample rate ``r`` and the counter step ``s`` (the
 between rows; in a stream, the first step): ``t = (counter − first) / (r · s)``. A step of 1 is the
 usual case; a legacy x-io file whose packet number counts every packet type steps by 3 for its
 quaternion rows. Any step other than 1 is recorded in ``meta["warnings"]``.
+
+A time column whose unit was guessed (a unit-less ``time``, read as seconds unless its magnitude makes
+it an epoch) is checked for plausibility: a median sample interval giving a rate outside
+:data:`PLAUSIBLE_RATE` is recorded in ``meta["warnings"]`` (the data are kept as read).
 """
 
 from __future__ import annotations
@@ -24,7 +28,13 @@ from mocapkit.io.imu_columns import TIME_UNITS
 from mocapkit.io.imu_layout import Layout
 from mocapkit.io.imu_orientation import quaternions_from_euler, quaternions_from_matrices
 
-__all__ = ["RowReader"]
+__all__ = ["PLAUSIBLE_RATE", "RowReader"]
+
+#: Sample rates (Hz) of orientation data from body-worn IMUs and optical systems. Their outputs run
+#: at about 10 Hz to 2 kHz (high-speed optical cameras up to ~10 kHz); human movement needs a few
+#: Hz at the very least. Milliseconds read as seconds divide the rate by 1000 (100 Hz -> 0.1 Hz,
+#: 1 kHz -> 1 Hz), microseconds by 1e6: all below 2 Hz. Used only when the unit was not stated.
+PLAUSIBLE_RATE = (2.0, 10_000.0)
 
 _SEP_NAMES = {"\t": "tab", ",": "comma", ";": "semicolon", None: "whitespace"}
 
@@ -258,6 +268,20 @@ class RowReader:
             return quaternions_from_euler(arr, o.degrees, o.names)
         return arr, None
 
+    def _implausible_rate(self, times: list[float]) -> str | None:
+        """A warning when a guessed time unit gives a rate outside :data:`PLAUSIBLE_RATE`."""
+        if self.lay.time.stated or len(times) < 2:
+            return None
+        dt = float(np.median(np.diff(np.asarray(times, dtype=np.float64))))
+        lo, hi = PLAUSIBLE_RATE
+        rate = 1.0 / dt
+        if lo <= rate <= hi:
+            return None
+        hint = " (milliseconds read as seconds give 1/1000 of the rate)" if self.unit == "s" and rate < lo else ""
+        return (f"column {self.tname!r} has no unit and was read in {self.unit}: its median sample interval "
+                f"{dt:.6g} s gives {rate:.6g} Hz, outside the {lo:g}-{hi:g} Hz of orientation sensors{hint}; "
+                "if that is not its unit, give --time-unit s|ms|us|ns")
+
     def finish(self) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray, str | None]], list[str]]:
         """``(times of all rows, [(row indices, (M, 4) w,x,y,z, conversion) per sensor], warnings)``."""
         if not self.line_nos:
@@ -291,6 +315,9 @@ class RowReader:
                     )
         else:
             times = self.times
+            note = self._implausible_rate(times)
+            if note:
+                warnings.append(note)
         out = []
         for k, o in enumerate(self.lay.sensors):
             if not self.rows[k]:

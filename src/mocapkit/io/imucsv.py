@@ -25,8 +25,20 @@ quaternion sets, no time and no rate) raises an error naming the columns and the
 
 ``Signal.meta`` holds ``format`` (vendor label), ``rate`` (Hz, stated or given; ``None`` when the file
 has timestamps and states none), ``header``, ``header_line``, ``time_column``, ``time_unit``,
-``orientation_columns``, ``conversion`` (how a matrix / Euler angles became quaternions, else
-``None``), ``sensor`` (files with several sensors) and ``warnings`` (list of text).
+``orientation_columns``, ``conversion`` (how a matrix / Euler angles became quaternions, or the
+order in which numbered quaternion columns were read; else ``None``), ``sensor`` (files with several
+sensors) and ``warnings`` (list of text).
+
+Numbered quaternion columns (``q0..q3``, ``Quat_q0..3``, ``Element 1..4``) are read scalar-first,
+the vendors' convention (Xsens, x-io); ``meta["conversion"]`` says so and names ``--scalar-last``.
+The values cannot tell the order: any reordering of a unit quaternion is a unit quaternion, the
+angle between successive samples is the same in every order, and the scalar part of a real recording
+crosses zero as often as a vector part does (the x-io lower-body walk turns through 180°; its
+``W`` changes sign while its ``Z`` keeps one sign), so no check on the numbers is made.
+
+A time column without a stated unit is checked for plausibility: a median sample interval outside
+:data:`mocapkit.io.imu_rows.PLAUSIBLE_RATE` (2 Hz to 10 kHz) is recorded in ``meta["warnings"]``
+naming the column, the rate and ``--time-unit`` (milliseconds read as seconds), never changed.
 
 Anything wrong with the content raises :class:`mocapkit.errors.MocapFormatError` naming the file and
 the 1-based line.
@@ -170,7 +182,21 @@ def _parse(lines: list[str], src: str, rate: float | None, name: str, opts: Colu
     return out
 
 
+def _order_note(o) -> str | None:
+    """How numbered quaternion columns (``q0..q3``, ``Element 1..4``) were ordered: their names do not
+    say which one is the scalar, and the values cannot tell (see the module docstring)."""
+    order = o.extra.get("order") if o.kind == "quaternion" else None
+    if order == "scalar-first":
+        return (f"numbered columns {', '.join(o.names)} read as w,x,y,z (scalar first); "
+                "use --scalar-last if they hold x,y,z,w")
+    if order == "scalar-last":
+        w, x, y, z = o.names
+        return f"numbered columns {x}, {y}, {z}, {w} read as x,y,z,w (--scalar-last)"
+    return None
+
+
 def _meta(lay: Layout, o, how: str | None, warnings: list[str]) -> dict:
+    how = how if how is not None else _order_note(o)
     meta = {
         "format": lay.fmt, "rate": lay.rate, "header": lay.names and _header_text(lay), "header_line": lay.header_line,
         "time_column": lay.time.name or None, "time_unit": lay.time.unit, "orientation_columns": list(o.names),
