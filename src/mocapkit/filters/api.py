@@ -77,8 +77,10 @@ def fit(t, y, order: int = 2, penalty: float | None = None, solver: str = "exact
         ``K`` of Eq. 2 (signal units). ``None``: automatic mode — the knot cost λ of the additive
         loss ``SSR + λ·N_k`` is chosen by :func:`mocapkit.filters.penalty.choose_knot_cost` (the
         segmentation whose weakest knot gains most relative to the long-run variance of its
-        residual; independent of the recording's length) and that loss is minimised exactly
-        (``solver`` is then ``"auto"``; ``penalty`` of the result is the equivalent ``K``).
+        residual; independent of the recording's length) and that loss is minimised exactly over
+        chunks of at least ``order + 2`` valid samples, so that every chunk keeps a residual degree
+        of freedom (a shorter part is one chunk; ``solver`` is then ``"auto"``; ``penalty`` of the
+        result is the equivalent ``K``).
     solver
         ``"iterative"`` (the seed's local algorithm) or ``"exact"`` (global optimum, seeded with the
         iterative result so it is never worse); ignored in automatic mode.
