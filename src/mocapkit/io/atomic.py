@@ -91,3 +91,16 @@ def read_file_bytes(path: str | os.PathLike[str], what: str = "file") -> bytes:
         raise MocapFormatError(src, None, f"is a folder, not a {what}") from None
     except OSError as exc:
         raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
+
+
+def read_text_lines(path: str | os.PathLike[str], what: str = "file") -> tuple[list[str], str]:
+    """The lines of a text file and the encoding used: a UTF-8 BOM is dropped, CR/LF and CR line ends
+    become line breaks, UTF-8 is tried first, then Latin-1 (exports of Windows tools)."""
+    data = read_file_bytes(path, what)
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    try:
+        text, enc = data.decode("utf-8"), "utf-8"
+    except UnicodeDecodeError:
+        text, enc = data.decode("latin-1"), "latin-1"
+    return text.replace("\r\n", "\n").replace("\r", "\n").split("\n"), enc

@@ -52,7 +52,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError
-from mocapkit.io.atomic import atomic_write_text, read_file_bytes
+from mocapkit.io.atomic import atomic_write_text, read_text_lines
 from mocapkit.motion import Signal
 
 if TYPE_CHECKING:  # the model is imported lazily (mocapkit.markers imports mocapkit.io)
@@ -77,14 +77,7 @@ __all__ = [
 
 def _lines(path: Path, what: str) -> tuple[list[str], str]:
     """Lines of a text file (BOM dropped, CR/LF handled), decoded as UTF-8 or else Latin-1."""
-    data = read_file_bytes(path, what)
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
-    try:
-        text, enc = data.decode("utf-8"), "utf-8"
-    except UnicodeDecodeError:
-        text, enc = data.decode("latin-1"), "latin-1"
-    return text.replace("\r\n", "\n").replace("\r", "\n").split("\n"), enc
+    return read_text_lines(path, what)
 
 
 def _number(cell: str, src: str, line: int, what: str) -> float:

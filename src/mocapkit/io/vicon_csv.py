@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.atomic import read_file_bytes
+from mocapkit.io.atomic import read_text_lines
 
 if TYPE_CHECKING:
     from mocapkit.markers import Markers
@@ -163,14 +163,7 @@ def read_vicon_csv(path: str | Path) -> Markers:
 
     p = Path(path)
     src = str(p)
-    data = read_file_bytes(p, "CSV file")
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
-    try:
-        text, enc = data.decode("utf-8"), "utf-8"
-    except UnicodeDecodeError:
-        text, enc = data.decode("latin-1"), "latin-1"
-    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    lines, enc = read_text_lines(p, "CSV file")
     blocks, delim = _split_blocks(lines, src)
     if not blocks or blocks[0].name not in ("Trajectories", "Devices"):
         raise MocapFormatError(src, 1, "not a Vicon Nexus CSV export (the first line must be 'Trajectories' "
