@@ -425,3 +425,10 @@ def test_fuzz_only_format_errors_escape(tmp_path: Path, edits) -> None:
         assert e.path == str(f)
     else:
         assert m.n_frames >= 1 and np.all(np.isfinite(m.rotations))
+
+
+def test_unknown_xml_encoding_is_a_format_error(tmp_path):
+    f = tmp_path / "enc.mvnx"
+    f.write_text('<?xml version="1.0" encoding="TF-8"?>\n<mvnx version="4"><subject/></mvnx>\n')
+    with pytest.raises(MocapFormatError, match="cannot decode the XML"):
+        read_mvnx(f)

@@ -316,6 +316,8 @@ def read_mvnx(path: str | Path, gap_tolerance_m: float = GAP_TOLERANCE_M) -> Mot
         raise MocapFormatError(src, e.lineno, f"malformed XML: {expat.ErrorString(e.code)} (column {e.offset + 1})") from None
     except (FileNotFoundError, IsADirectoryError, PermissionError) as e:
         raise MocapFormatError(src, None, e.strerror or str(e)) from None
+    except (LookupError, UnicodeError, ValueError) as e:  # e.g. an unknown encoding in the XML declaration
+        raise MocapFormatError(src, None, f"cannot decode the XML: {e}") from None
     return _build(r, src, float(gap_tolerance_m))
 
 
