@@ -305,3 +305,13 @@ def test_joint_roles_ignore_a_rig_namespace():
     jm = resolve_joint_map(names)
     assert set(jm) == set(ROLES) and all(v.startswith("mixamorig:") for v in jm.values())
     assert jm["root"] == "mixamorig:Hips"
+
+
+def test_output_equal_to_the_input_is_refused(tests_data, tmp_path):
+    src = tmp_path / "q.csv"
+    src.write_bytes((tests_data / "xio" / "pelvis" / "Quaternion.csv").read_bytes())
+    before = src.read_bytes()
+    for args in (("compress", src, "-t", "1e-3", "-o", src), ("decompress", src, "--rate", "50", "-o", src)):
+        r = run(*args)
+        assert r.returncode == 2 and "is the input file" in r.stderr
+        assert src.read_bytes() == before

@@ -140,12 +140,15 @@ FILE_SUFFIXES = (".csv", ".txt", ".tsv", ".json", ".bvh", ".amc", ".glb", ".gltf
                  ".png", ".parquet")
 
 
-def _check_output(path: Optional[Path], folder: bool = False) -> None:
-    """Refuse an output path that cannot be written before any work is done (named as given)."""
+def _check_output(path: Optional[Path], folder: bool = False, source: Optional[Path] = None) -> None:
+    """Refuse an output path that cannot be written, or that is the input itself, before any work is
+    done (named as given)."""
     import os
 
     if path is None:
         return
+    if source is not None and path.exists() and source.exists() and os.path.samefile(path, source):
+        raise InvalidParameterError(f"{path}: is the input file; write the result elsewhere")
     if folder:
         if path.exists() and not path.is_dir():
             raise InvalidParameterError(f"{path}: expected a folder for the outputs")
@@ -241,7 +244,7 @@ def compress(
 
     if stats_only and output is not None:
         raise InvalidParameterError("--stats-only writes nothing: drop it or drop --output")
-    _check_output(output, folder=input.is_dir() or (output is not None and output.is_dir()))
+    _check_output(output, folder=input.is_dir() or (output is not None and output.is_dir()), source=input)
     if kind_of(input) == "skeletal":
         if output is None and not (as_json or stats_only):
             raise InvalidParameterError(
@@ -474,7 +477,7 @@ def convert(
 ) -> None:
     """Convert AMC (with its ASF) to BVH and back (BVH + --asf to AMC); markers (C3D, TSV, TRC, Vicon CSV)
     to CSV, C3D or TRC; OpenSim MOT/STO to MOT, STO or CSV."""
-    _check_output(output)
+    _check_output(output, source=input)
     from mocapkit.io.loaders import kind_of, load_motion
 
     kind = kind_of(input)
@@ -632,8 +635,8 @@ def filter_cmd(
         raise InvalidParameterError("give exactly one of --penalty K or --auto")
     if order < 0:
         raise InvalidParameterError("--order must be >= 0")
-    _check_output(output)
-    _check_output(plot)
+    _check_output(output, source=input)
+    _check_output(plot, source=input)
     suffix = None if output is None else output.suffix.lower()
     if suffix not in (None, ".csv", ".c3d", ".trc"):
         raise InvalidParameterError(f"{output}: filter writes .csv, or .c3d/.trc for a marker file")
@@ -818,7 +821,7 @@ def decompress(
     of a compressed skeletal clip (.glb/.gltf -> .bvh)."""
     import numpy as np
 
-    _check_output(output)
+    _check_output(output, source=points)
     if points.suffix.lower() in (".glb", ".gltf"):
         _decompress_clip(points, output, times_from, rate)
         return
