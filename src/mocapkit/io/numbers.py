@@ -1,0 +1,89 @@
+"""Strict numbers for every text reader: one grammar, finite values, sizes that cannot overflow.
+
+Python's ``float`` accepts more than any motion-capture format writes (``"0_5"`` is 5, ``"nan"``,
+``"inf"``, ``"1e999"`` and surrounding blanks are accepted), so a corrupted file would be read as
+different numbers without a word. Readers parse tokens here instead:
+
+- the grammar is a plain decimal number: optional sign, digits with at most one point, optional
+  exponent (``[+-]?(\\d+\\.?\\d*|\\.\\d+)([eE][+-]?\\d+)?``); nothing else, no underscores;
+- a format's own missing-value spelling (``NaN`` in a C3D-derived CSV, an empty cell) is accepted
+  only where the reader asks for it and becomes ``nan``;
+- ``|value| > MAX_ABS`` is refused: squaring or summing such values would overflow float64
+  (``1e308`` offsets gave ``inf``/``nan`` errors that then reported "success").
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from mocapkit.errors import MocapFormatError
+
+MAX_ABS = 1e12
+"""Largest magnitude accepted for any coordinate, angle, quaternion component or time (squares and
+sums of up to 1e6 such values stay far below float64's 1.8e308)."""
+
+NUMBER_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+_fullmatch = NUMBER_RE.fullmatch
+
+
+def _describe(tok: str) -> str:
+    shown = tok if len(tok) <= 40 else tok[:37] + "..."
+    return repr(shown)
+
+
+def parse_number(tok: str, src: str, line: int | None, field: str, *,
+                 missing: Sequence[str] = (), limit: float = MAX_ABS) -> float:
+    """One token as a float by the strict grammar; ``missing`` spellings give ``nan``.
+
+    Raises :class:`MocapFormatError` naming ``src``, ``line`` and ``field`` for anything else, for
+    non-finite results and for ``|value| > limit``.
+    """
+    if tok in missing:
+        return float("nan")
+    if not _fullmatch(tok):
+        raise MocapFormatError(src, line, f"{field}: {_describe(tok)} is not a number")
+    v = float(tok)
+    if not abs(v) <= limit:  # also catches inf from an exponent like 1e999
+        raise MocapFormatError(src, line, f"{field}: {_describe(tok)} is out of range (|value| > {limit:g})")
+    return v
+
+
+def parse_numbers(toks: Iterable[str], src: str, line: int | None, field: str, *,
+                  missing: Sequence[str] = (), limit: float = MAX_ABS) -> list[float]:
+    """:func:`parse_number` over several tokens (``field`` gets the 1-based position appended)."""
+    out = []
+    for i, tok in enumerate(toks):
+        if tok in missing:
+            out.append(float("nan"))
+            continue
+        if not _fullmatch(tok):
+            raise MocapFormatError(src, line, f"{field} {i + 1}: {_describe(tok)} is not a number")
+        v = float(tok)
+        if not abs(v) <= limit:
+            raise MocapFormatError(src, line,
+                                   f"{field} {i + 1}: {_describe(tok)} is out of range (|value| > {limit:g})")
+        out.append(v)
+    return out
+
+
+def check_finite_array(values: np.ndarray, src: str, field: str, *, first_line: int | None = None,
+                       allow_nan: bool = False, limit: float = MAX_ABS) -> None:
+    """Refuse ``inf`` (and ``nan`` unless ``allow_nan``) or ``|value| > limit`` in an array parsed in bulk.
+
+    ``first_line`` is the file line of row 0 (rows are the first axis), so the error names the line.
+    """
+    a = np.asarray(values, dtype=float)
+    bad = ~(np.abs(a) <= limit)
+    if allow_nan:
+        bad &= ~np.isnan(a)
+    if not bad.any():
+        return
+    flat = int(np.flatnonzero(bad.reshape(len(a), -1).any(axis=1))[0]) if a.ndim else 0
+    row = a.reshape(len(a), -1)[flat] if a.ndim else a.reshape(1)
+    v = float(row[~(np.abs(row) <= limit) & (~np.isnan(row) if allow_nan else True)][0])
+    line = None if first_line is None else first_line + flat
+    what = "not finite" if not np.isfinite(v) else f"out of range (|value| > {limit:g})"
+    raise MocapFormatError(src, line, f"{field}: {v!r} is {what}")
