@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 
-.PHONY: demo test bench sweep clean
+.PHONY: demo test bench bench-imu sweep fuzz clean
 
 $(STAMP): pyproject.toml Makefile
 	$(PY) -m venv $(VENV)
@@ -27,8 +27,21 @@ test: $(STAMP) $(NODE_STAMP)
 bench: $(STAMP)
 	$(BIN)/mocapkit bench --json > docs/bench.json
 
+# peak memory of the IMU CSV reader on a generated 800 MB file (issue 10: <= 3x the numeric data)
+bench-imu: $(STAMP)
+	$(BIN)/python benchmarks/imu_memory.py
+
 sweep: $(STAMP)
 	$(BIN)/mocapkit sweep ../shared/data/imu/xio-lower-body --out docs/sweep
+
+# issue 10's adversarial trial (tools/trial.py): mutated files of every format, odd output paths, extreme
+# options, kill -9, huge claims; prints category x outcome counts, writes $(FUZZ_OUT)/report.md and .json,
+# fails on any crash, hang, memory blow-up, wrong-but-silent result, modified input or replaced device
+FUZZ_CASES ?= 5000
+FUZZ_JOBS ?= 2
+FUZZ_OUT ?= build/trial
+fuzz: $(STAMP)
+	$(BIN)/python tools/trial.py --cases $(FUZZ_CASES) --jobs $(FUZZ_JOBS) --out $(FUZZ_OUT)
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info

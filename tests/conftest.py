@@ -9,6 +9,70 @@ import pytest
 TESTS_DIR = Path(__file__).resolve().parent
 
 
+# --------------------------------------------------------------------------------------------------
+# No test leaves files outside its temporary folder (issue 10): the repository tree (new files; changed
+# or removed files in tests/data) and the system temp folder (outside pytest's basetemp) are listed at
+# the start of the session and compared at the end; leftovers fail the session with their list.
+# MOCAPKIT_LEFTOVER_CHECK=0 turns the check off (e.g. while other people write into the same tree).
+# --------------------------------------------------------------------------------------------------
+
+_SKIP_DIRS = {".git", ".venv", "__pycache__", ".hypothesis", ".pytest_cache", "node_modules", "build"}
+
+
+def _repo_files() -> dict[str, int]:
+    import os
+
+    root = TESTS_DIR.parent
+    out = {}
+    for d, dirs, files in os.walk(root):
+        dirs[:] = [x for x in dirs if x not in _SKIP_DIRS and not x.endswith(".egg-info")]
+        for f in files:
+            if f.endswith((".pyc", ".nbi", ".nbc")):
+                continue
+            p = os.path.join(d, f)
+            try:
+                out[p] = os.lstat(p).st_mtime_ns if p.startswith(str(TESTS_DIR / "data")) else 0
+            except FileNotFoundError:
+                pass
+    return out
+
+
+def _temp_entries() -> set[str]:
+    import os
+    import tempfile
+
+    tmp = tempfile.gettempdir()
+    return {os.path.join(tmp, e) for e in os.listdir(tmp) if not e.startswith("pytest-of-")}
+
+
+def pytest_sessionstart(session):
+    import os
+
+    if os.environ.get("MOCAPKIT_LEFTOVER_CHECK", "1") != "0":
+        session.config._mocapkit_snapshot = (_repo_files(), _temp_entries())
+
+
+def pytest_sessionfinish(session, exitstatus):
+    snap = getattr(session.config, "_mocapkit_snapshot", None)
+    if snap is None:
+        return
+    repo0, tmp0 = snap
+    repo1, tmp1 = _repo_files(), _temp_entries()
+    leftovers = sorted(set(repo1) - set(repo0)) + sorted(tmp1 - tmp0)
+    changed = sorted(p for p in repo0 if repo0[p] and repo1.get(p) != repo0[p])
+    if leftovers or changed:
+        lines = [f"  left behind: {p}" for p in leftovers] + [f"  changed or removed: {p}" for p in changed]
+        msg = "tests left files outside their temporary folders:\n" + "\n".join(lines[:50])
+        rep = session.config.pluginmanager.get_plugin("terminalreporter")
+        if rep is not None:
+            rep.write_sep("=", "leftover files", red=True)
+            rep.write_line(msg)
+        else:
+            print(msg)
+        if session.exitstatus == 0:
+            session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
 @pytest.fixture(scope="session")
 def tests_data() -> Path:
     """``tests/data`` of this project."""

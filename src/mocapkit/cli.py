@@ -35,6 +35,51 @@ err = _console(stderr=True)  # diagnostics and progress
 console = _console()  # results (stdout)
 
 
+def _opt_name(param) -> str:
+    longs = [o for o in getattr(param, "opts", ()) if o.startswith("--")]
+    return longs[0] if longs else f"--{param.name.replace('_', '-')}"
+
+
+def _show(v) -> str:
+    return f"{v:g}" if isinstance(v, float) else str(v)
+
+
+def _within(lo=None, hi=None, *, lo_open: bool = False, hi_open: bool = False):
+    """A typer callback checking an option's number (or each of a list): finite and within ``lo``..``hi``
+    (``lo_open``/``hi_open``: strict bounds). Anything else is an InvalidParameterError naming the
+    option, which :func:`main` prints on one line with exit code 2 before any work is done."""
+    if lo is not None and hi is not None:
+        want = f"in {'(' if lo_open else '['}{_show(lo)}, {_show(hi)}{')' if hi_open else ']'}"
+    elif lo is not None:
+        want = f"{'>' if lo_open else '>='} {_show(lo)}"
+    else:
+        want = f"{'<' if hi_open else '<='} {_show(hi)}" if hi is not None else "a finite number"
+
+    def ok(v) -> bool:
+        if not isinstance(v, int) and not math.isfinite(v):
+            return False
+        return ((lo is None or (v > lo if lo_open else v >= lo))
+                and (hi is None or (v < hi if hi_open else v <= hi)))
+
+    def check(ctx: typer.Context, param: typer.CallbackParam, value):
+        if value is None or ctx.resilient_parsing:
+            return value
+        for v in value if isinstance(value, (list, tuple)) else (value,):
+            if not ok(v):
+                raise InvalidParameterError(f"{_opt_name(param)} must be {want}, got {_show(v)}")
+        return value
+
+    return check
+
+
+#: limits of the options (documented in the README's "Errors and exit codes"): rates and units within
+#: 12 decades keep every time and length far from float64 overflow
+RATE_RANGE = (1e-6, 1e6)
+UNIT_RANGE = (1e-6, 1e6)
+MAX_SEGMENT_LENGTH = 10**9  # = mocapkit.pla.base.MAX_SEGMENT_LENGTH_LIMIT (not imported: numba at start-up)
+MAX_FILTER_ORDER = 10  # = mocapkit.filters.api.MAX_ORDER
+
+
 def _version(value: bool) -> None:
     if value:
         from mocapkit import __version__
@@ -86,7 +131,8 @@ class Method(str, Enum):
 
 RateOpt = Annotated[
     Optional[float],
-    typer.Option("--rate", help="Sample rate in Hz, for files without timestamps (legacy x-io, Xsens)."),
+    typer.Option("--rate", help="Sample rate in Hz, for files without timestamps (legacy x-io, Xsens).",
+                 callback=_within(*RATE_RANGE)),
 ]
 TimeColumnOpt = Annotated[
     Optional[str], typer.Option("--time-column", help="IMU files: the name of the time column, when the guess is wrong.")
@@ -124,15 +170,19 @@ ThresholdOpt = Annotated[
         "--threshold",
         "-t",
         help="The method's own bound: SSR per segment (fastsw, sw, cplr), ε per sample (swing), degrees (anglesw).",
+        callback=_within(0.0),
     ),
 ]
 MaxAngleOpt = Annotated[
     Optional[float],
-    typer.Option("--max-angle", help="Guarantee: every sample within DEG degrees of the SLERP decode (verified)."),
+    typer.Option("--max-angle", help="Guarantee: every sample within DEG degrees of the SLERP decode (verified).",
+                 callback=_within(0.0, 180.0, lo_open=True, hi_open=True)),
 ]
 MaxLenOpt = Annotated[
     Optional[int],
-    typer.Option("--max-segment-length", help="At most N sample intervals between segment points."),
+    typer.Option("--max-segment-length", callback=_within(1, MAX_SEGMENT_LENGTH),
+                 help="At most N sample intervals between segment points (default: 1000 for sw and anglesw, whose "
+                      "work per sample grows with the segment; unbounded for the O(1) methods)."),
 ]
 
 
@@ -140,28 +190,40 @@ FILE_SUFFIXES = (".csv", ".txt", ".tsv", ".json", ".bvh", ".amc", ".glb", ".gltf
                  ".png", ".parquet")
 
 
-def _check_output(path: Optional[Path], folder: bool = False, source: Optional[Path] = None) -> None:
-    """Refuse an output path that cannot be written, or that is the input itself, before any work is
-    done (named as given)."""
-    import os
+def _check_output(path: Optional[Path], folder: bool = False, source: Optional[Path] = None, *,
+                  inputs=(), option: str = "--output") -> None:
+    """Refuse, before any work, an output (``option``) that cannot be written, is the same file as an
+    input (``source`` and ``inputs``; hard links and symlinks too) or lies in an input folder
+    (:func:`mocapkit.io.atomic.check_output`)."""
+    from mocapkit.io.atomic import check_output
 
-    if path is None:
-        return
-    if source is not None and path.exists() and source.exists() and os.path.samefile(path, source):
-        raise InvalidParameterError(f"{path}: is the input file; write the result elsewhere")
-    if folder:
-        if path.exists() and not path.is_dir():
-            raise InvalidParameterError(f"{path}: expected a folder for the outputs")
-        parent = path if path.exists() else path.parent
+    check_output(path, [source, *inputs], folder=folder, option=option)
+
+
+def _non_finite(obj, where: str = ""):
+    """``(field, value)`` of the first NaN or infinity in a JSON-able record, else ``None``."""
+    if isinstance(obj, float):
+        return None if math.isfinite(obj) else (where or "the value", obj)
+    if isinstance(obj, dict):
+        items = ((f"{where}.{k}" if where else str(k), v) for k, v in obj.items())
+    elif isinstance(obj, (list, tuple)):
+        items = ((f"{where}[{i}]", v) for i, v in enumerate(obj))
     else:
-        if path.is_dir():
-            raise InvalidParameterError(f"{path}: is a folder; give a file name")
-        parent = path.parent
-    parent = parent if str(parent) else Path(".")
-    if not parent.is_dir():
-        raise InvalidParameterError(f"{path}: the folder {parent} does not exist")
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise InvalidParameterError(f"{path}: the folder {parent} is not writable")
+        return None
+    for w, v in items:
+        found = _non_finite(v, w)
+        if found:
+            return found
+    return None
+
+
+def _json(obj, what: str) -> str:
+    """``obj`` as strict JSON (RFC 8259: no NaN or Infinity). A non-finite number is an error naming its
+    field: a result that cannot be reported exactly is not reported."""
+    bad = _non_finite(obj)
+    if bad is not None:
+        raise MocapError(f"{what}: {bad[0]} is {float(bad[1])!r}, not a finite number; no JSON was written")
+    return json.dumps(obj, indent=1, allow_nan=False)
 
 
 def _one_control(threshold, target_icr, max_angle) -> None:
@@ -211,7 +273,8 @@ def compress(
     method: MethodOpt = Method.fastsw,
     threshold: ThresholdOpt = None,
     target_icr: Annotated[
-        Optional[float], typer.Option("--target-icr", help="Find the threshold giving this ICR (points/samples).")
+        Optional[float], typer.Option("--target-icr", help="Find the threshold giving this ICR (points/samples).",
+                                      callback=_within(0.0, 1.0, lo_open=True))
     ] = None,
     max_angle: MaxAngleOpt = None,
     max_segment_length: MaxLenOpt = None,
@@ -224,10 +287,12 @@ def compress(
     asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
     max_position_error: Annotated[
         Optional[float],
-        typer.Option("--max-position-error", help="Skeletal input: every joint's world position within CM (verified)."),
+        typer.Option("--max-position-error", help="Skeletal input: every joint's world position within CM (verified).",
+                     callback=_within(1e-6, 1e9)),
     ] = None,
     unit_cm: Annotated[
-        Optional[float], typer.Option("--unit-cm", help="Skeletal input: centimetres per file length unit.")
+        Optional[float], typer.Option("--unit-cm", help="Skeletal input: centimetres per file length unit.",
+                                      callback=_within(*UNIT_RANGE))
     ] = None,
     strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: Frames: mismatch is an error (default) or is recorded.")] = True,
     stats_only: Annotated[
@@ -244,7 +309,8 @@ def compress(
 
     if stats_only and output is not None:
         raise InvalidParameterError("--stats-only writes nothing: drop it or drop --output")
-    _check_output(output, folder=input.is_dir() or (output is not None and output.is_dir()), source=input)
+    _check_output(output, folder=input.is_dir() or (output is not None and output.is_dir()), source=input,
+                  inputs=(asf,))
     if kind_of(input) == "skeletal":
         if output is None and not (as_json or stats_only):
             raise InvalidParameterError(
@@ -256,6 +322,7 @@ def compress(
     if max_position_error is not None or asf is not None or unit_cm is not None:
         raise InvalidParameterError("--max-position-error, --asf and --unit-cm apply to BVH/AMC input")
     from mocapkit.io import load_signals, write_signal_csv
+    from mocapkit.io.atomic import is_device_or_pipe
     from mocapkit.pla import compress_to, evaluate
 
     _one_control(threshold, target_icr, max_angle)
@@ -272,7 +339,7 @@ def compress(
     if output is not None and folder_mode and output.suffix.lower() in FILE_SUFFIXES:
         raise InvalidParameterError(f"{output}: INPUT is {what}, so --output is a folder (one CSV per sensor), "
                                     f"not a {output.suffix} file")
-    if output is not None and not folder_mode and output.suffix.lower() != ".csv":
+    if output is not None and not folder_mode and output.suffix.lower() != ".csv" and not is_device_or_pipe(output):
         raise InvalidParameterError(f"{output}: segment points are written as .csv")
     points_to_stdout = output is None and not folder_mode and not as_json and not stats_only
     mode, target = (
@@ -284,10 +351,11 @@ def compress(
     with _progress(f"compressing {input.name}", total=len(signals)) as update:
         comps = {}
         for i, (name, sig) in enumerate(signals.items()):
-            comps[name] = compress_to(
-                sig, method.value, threshold=threshold, target_icr=target_icr, max_angle=max_angle,
-                max_segment_length=max_segment_length,
-            )
+            with _naming_target_icr(target_icr):
+                comps[name] = compress_to(
+                    sig, method.value, threshold=threshold, target_icr=target_icr, max_angle=max_angle,
+                    max_segment_length=max_segment_length,
+                )
             update(i + 1)
     for name, sig in signals.items():
         comp = comps[name]
@@ -303,12 +371,23 @@ def compress(
             for t, v in zip(comp.times.tolist(), comp.values.tolist()):
                 sys.stdout.write(",".join(repr(x) for x in (t, *v)) + "\n")
     if as_json:
-        print(json.dumps(records, indent=1))
+        print(_json(records, "compress --json"))
     else:  # the table is the result unless the points went to stdout
         (err if points_to_stdout else console).print(_summary_table(records, f"{method.value}: {mode} {target:g}"))
     skipped = sorted({f for s in signals.values() for f in s.meta.get("skipped_files", [])})
     if skipped:
         err.print(f"not orientation data, skipped: {', '.join(skipped)}")
+
+
+@contextlib.contextmanager
+def _naming_target_icr(target_icr):
+    """An unreachable ``--target-icr`` is reported under the option's name."""
+    from mocapkit.errors import UnreachableTargetError
+
+    try:
+        yield
+    except UnreachableTargetError as e:
+        raise InvalidParameterError(f"--target-icr {target_icr:g}: {e}") from None
 
 
 def _compress_skeletal(input, output, method, threshold, target_icr, max_position_error, max_angle,
@@ -328,7 +407,7 @@ def _compress_skeletal(input, output, method, threshold, target_icr, max_positio
     ucm, assumed = find_unit(motion, unit_cm)
     bound = None if max_position_error is None else max_position_error / ucm
     steps = None if threshold is not None else 41 if target_icr is not None else 15
-    with _progress(f"compressing {input.name}", total=steps) as update:
+    with _progress(f"compressing {input.name}", total=steps) as update, _naming_target_icr(target_icr):
         comp = compress_motion(
             motion, method.value, threshold=threshold, target_icr=target_icr, max_position_error=bound,
             max_segment_length=max_segment_length, progress=update,
@@ -344,7 +423,7 @@ def _compress_skeletal(input, output, method, threshold, target_icr, max_positio
         rec["output"] = str(output)
         rec["file_bytes"] = output.stat().st_size
     if as_json:
-        print(json.dumps(rec, indent=1))
+        print(_json(rec, f"{input}: compress --json"))
     else:
         tab = Table(title=f"{input.name}: {rec['method']} ({rec['mode']})")
         tab.add_column("quantity")
@@ -423,7 +502,7 @@ def info(
             "warnings": [f"{n}: {w}" for n, s in sigs.items() for w in s.meta.get("warnings", [])],
         }
     if as_json:
-        print(json.dumps(rec, indent=1))
+        print(_json(rec, f"{input}: info --json"))
     else:
         _print_info(rec)
 
@@ -471,13 +550,14 @@ def convert(
     input: Annotated[Path, typer.Argument(help="AMC (+ --asf), BVH or Xsens MVNX; markers (C3D, TSV, TRC, CSV); MOT/STO.")],
     output: Annotated[Path, typer.Argument(help="BVH or AMC for skeletal input; .csv/.c3d/.trc for markers; .mot/.sto/.csv for tables.")],
     asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
-    precision: Annotated[int, typer.Option("--precision", help="Decimals written to BVH.")] = 6,
+    precision: Annotated[int, typer.Option("--precision", help="Decimals written to BVH.", callback=_within(0, 20))] = 6,
     strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: Frames: mismatch is an error (default) or is recorded.")] = True,
-    max_residual: Annotated[float, typer.Option("--max-residual", help="BVH -> AMC: largest rotation (deg) the ASF's dofs may fail to express.")] = 0.1,
+    max_residual: Annotated[float, typer.Option("--max-residual", help="BVH -> AMC: largest rotation (deg) the ASF's dofs may fail to express.",
+                                                          callback=_within(0.0, 180.0))] = 0.1,
 ) -> None:
     """Convert AMC (with its ASF) to BVH and back (BVH + --asf to AMC); markers (C3D, TSV, TRC, Vicon CSV)
     to CSV, C3D or TRC; OpenSim MOT/STO to MOT, STO or CSV."""
-    _check_output(output, source=input)
+    _check_output(output, source=input, inputs=(asf,), option="OUTPUT")
     from mocapkit.io.loaders import kind_of, load_motion
 
     kind = kind_of(input)
@@ -581,32 +661,41 @@ def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
         raise InvalidParameterError(f"{input}: filter reads marker files (C3D, TSV, TRC, marker CSV) or a CSV "
                                     "with a time column; for skeletal motion, convert it or segment it")
     # a plain CSV with a header: a time column (first) and named columns
-    lines = input.read_text(encoding="utf-8").splitlines()
+    from mocapkit.io.atomic import read_text_lines
+    from mocapkit.io.numbers import parse_number
+
+    lines, _enc = read_text_lines(input, "CSV file")  # UTF-8 (BOM dropped), else Latin-1
+    while lines and not lines[-1].strip():
+        lines.pop()
     if not lines:
         raise MocapFormatError(str(input), None, "empty file")
     header = [h.strip() for h in lines[0].split(",")]
-    rows = []
+    if len(header) < 2:
+        raise MocapFormatError(str(input), 1, f"only one column ({header[0]!r}): a time column and at least one "
+                               "value column are needed")
+    rows, line_of = [], []
     for i, ln in enumerate(lines[1:], start=2):
         if not ln.strip():
             continue
+        line_of.append(i)
         f = ln.split(",")
         if len(f) != len(header):
             raise MocapFormatError(str(input), i, f"expected {len(header)} columns, got {len(f)}")
-        try:
-            rows.append([float(x) if x.strip() != "" else float("nan") for x in f])
-        except ValueError:
-            raise MocapFormatError(str(input), i, "a field is not a number") from None
+        # strict numbers (no '0_5', no inf, |value| <= 1e12); an empty cell or nan is a missing sample
+        rows.append([parse_number(x.strip(), str(input), i, header[k] or f"column {k + 1}",
+                                  missing=() if k == 0 else ("", "nan", "NaN"))
+                     for k, x in enumerate(f)])
     if not rows:
         raise MocapFormatError(str(input), None, "header only, no data rows")
     data = np.array(rows)
     bad = np.flatnonzero(~(np.diff(data[:, 0]) > 0))
     if bad.size or not np.all(np.isfinite(data[:, 0])):
         i = int(bad[0]) + 1 if bad.size else int(np.flatnonzero(~np.isfinite(data[:, 0]))[0])
-        raise MocapFormatError(str(input), i + 2, f"time {data[i, 0]!r} is not after the previous row's; "
+        raise MocapFormatError(str(input), line_of[i], f"time {data[i, 0]!r} is not after the previous row's; "
                                "times must be finite and strictly increasing")
     if np.isinf(data).any():
         i = int(np.flatnonzero(np.isinf(data).any(axis=1))[0])
-        raise MocapFormatError(str(input), i + 2, "infinite value (leave a cell empty or write nan for a missing sample)")
+        raise MocapFormatError(str(input), line_of[i], "infinite value (leave a cell empty or write nan for a missing sample)")
     names = [c.strip() for c in columns.split(",")] if columns else header[1:]
     for c in names:
         if c not in header[1:]:
@@ -618,8 +707,10 @@ def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
 @app.command("filter")
 def filter_cmd(
     input: Annotated[Path, typer.Argument(help="C3D, Qualisys TSV, marker CSV or a CSV with a time column.")],
-    order: Annotated[int, typer.Option("--order", help="Polynomial order of every chunk.")] = 2,
-    penalty: Annotated[Optional[float], typer.Option("--penalty", help="K: the cost of a knot, in signal units.")] = None,
+    order: Annotated[int, typer.Option("--order", help="Polynomial order of every chunk (0..10).",
+                                       callback=_within(0, MAX_FILTER_ORDER))] = 2,
+    penalty: Annotated[Optional[float], typer.Option("--penalty", help="K: the cost of a knot, in signal units.",
+                                                     callback=_within(0.0))] = None,
     auto: Annotated[bool, typer.Option("--auto", help="Choose the knot cost from the data (length-independent; see docs).")] = False,
     solver: Annotated[Solver, typer.Option("--solver", help="exact (global optimum) or iterative (the seed's).")] = Solver.exact,
     markers: Annotated[Optional[str], typer.Option("--markers", help="NAME[:xyz],... (knots shared by the components).")] = None,
@@ -636,8 +727,12 @@ def filter_cmd(
     if order < 0:
         raise InvalidParameterError("--order must be >= 0")
     _check_output(output, source=input)
-    _check_output(plot, source=input)
+    _check_output(plot, source=input, option="--plot")
+    from mocapkit.io.atomic import is_device_or_pipe
+
     suffix = None if output is None else output.suffix.lower()
+    if suffix == "" and is_device_or_pipe(output):  # /dev/null, /dev/stdout, a FIFO: written into, as CSV
+        suffix = ".csv"
     if suffix not in (None, ".csv", ".c3d", ".trc"):
         raise InvalidParameterError(f"{output}: filter writes .csv, or .c3d/.trc for a marker file")
     marker_out = suffix in (".c3d", ".trc")
@@ -714,7 +809,7 @@ def filter_cmd(
                             "coeffs": p.coeffs[:, 0].tolist() if D == 1 else [p.coeffs[:, d].tolist() for d in range(D)]}
                            for p in r.pieces],
             })
-        print(json.dumps(recs, indent=1))
+        print(_json(recs, f"{input}: filter --json"))
     else:
         tab = Table(title=f"{input.name}: piecewise polynomials of order {order} "
                           f"({'automatic knot cost' if auto else solver.value})")
@@ -740,14 +835,17 @@ def filter_eval(
     juggling: Annotated[Optional[Path], typer.Option("--juggling", help="A marker file (Qualisys TSV, C3D, TRC, marker CSV) with thrown balls, Z up.")] = None,
     balls: Annotated[Optional[str], typer.Option("--balls", help="Ball markers A,B,C (default: every marker that moves, see docs).")] = None,
     controls: Annotated[Optional[str], typer.Option("--controls", help="Static control markers (default: every marker that does not move).")] = None,
-    penalty: Annotated[Optional[float], typer.Option("--penalty", help="K of Eq. 2 for the balls (default: --auto).")] = None,
-    unit_m: Annotated[float, typer.Option("--unit-m", help="Metres per unit of the marker file (mm: 0.001).")] = 1e-3,
+    penalty: Annotated[Optional[float], typer.Option("--penalty", help="K of Eq. 2 for the balls (default: --auto).",
+                                                     callback=_within(0.0))] = None,
+    unit_m: Annotated[float, typer.Option("--unit-m", help="Metres per unit of the marker file (mm: 0.001).",
+                                          callback=_within(*UNIT_RANGE))] = 1e-3,
     sizes: Annotated[str, typer.Option("--sizes", help="Signal lengths for the exact solver's time curve ('' to skip).")] = "1000,2000,5000,10000,20000,50000",
 ) -> None:
     """The filtering experiments: synthetic Figure 2 signal, step overshoot, juggling flights, timing."""
     from mocapkit.evaluation.filtering import evaluate_juggling, evaluate_synthetic, exact_time_curve, figures, moving_markers
     from mocapkit.io.atomic import atomic_write_text
 
+    _check_output(out, folder=True, inputs=(juggling,), option="--out")
     mk = ball_list = None
     ctrl: list[str] = []
     if juggling is not None:  # read and check everything before any long computation
@@ -771,19 +869,23 @@ def filter_eval(
                                         "name the balls with --balls A,B,C")
     if penalty is not None and not penalty >= 0:
         raise InvalidParameterError("--penalty must be >= 0")
+    n_sizes = tuple(int(x) if x.strip().isdigit() and 10 <= int(x) <= 10_000_000 else -1
+                    for x in sizes.split(",") if x.strip())
+    if any(n < 0 for n in n_sizes):
+        raise InvalidParameterError(f"--sizes must be comma-separated integers in 10..10000000 (or ''), got {sizes!r}")
     out.mkdir(parents=True, exist_ok=True)
     syn = evaluate_synthetic()
-    atomic_write_text(out / "synthetic.json", json.dumps(syn, indent=1))
+    atomic_write_text(out / "synthetic.json", _json(syn, "filter-eval synthetic.json"))
     if mk is not None:
         jug = evaluate_juggling(mk, ball_list, penalty=penalty, unit_m=unit_m, controls=ctrl)
-        atomic_write_text(out / "juggling.json", json.dumps(jug, indent=1))
+        atomic_write_text(out / "juggling.json", _json(jug, "filter-eval juggling.json"))
         med = jug["median_flight_acc"]
         err.print(f"juggling: {jug['n_flights']} flights of {len(ball_list)} balls ({', '.join(ball_list)}), median "
                   f"acceleration {'–' if med is None else f'{med:.3f}'} m/s²"
                   + (f"; knots on the static controls: {sum(c['knots'] for c in jug['controls'].values())} "
                      f"({len(ctrl)} markers)" if ctrl else ""))
-    curve = exact_time_curve(tuple(int(x) for x in sizes.split(",") if x.strip()))
-    atomic_write_text(out / "timing.json", json.dumps(curve, indent=1))
+    curve = exact_time_curve(n_sizes)
+    atomic_write_text(out / "timing.json", _json(curve, "filter-eval timing.json"))
     best = None
     if mk is not None:
         best = max(ball_list, key=lambda b: int(np.isfinite(mk.positions[:, mk.labels.index(b), 2]).sum()))
@@ -810,6 +912,7 @@ def decompress(
         typer.Option(
             "--rate",
             help="Decode on a uniform grid at HZ; with --times-from, the rate of an ORIGINAL without timestamps.",
+            callback=_within(*RATE_RANGE),
         ),
     ] = None,
     time_column: TimeColumnOpt = None,
@@ -821,7 +924,7 @@ def decompress(
     of a compressed skeletal clip (.glb/.gltf -> .bvh)."""
     import numpy as np
 
-    _check_output(output, source=points)
+    _check_output(output, source=points, inputs=(times_from,))
     if points.suffix.lower() in (".glb", ".gltf"):
         _decompress_clip(points, output, times_from, rate)
         return
@@ -832,8 +935,7 @@ def decompress(
                                     "compressed clip (.glb/.gltf), not a full recording")
 
     from mocapkit.io import load_signals, read_imu_csv, write_signal_csv
-    from mocapkit.pla.decode import reconstruct_points
-    from mocapkit.quat import normalize
+    from mocapkit.pla.decode import reconstruct_points, unit_quaternions
 
     if times_from is None and rate is None:
         raise InvalidParameterError("give --times-from ORIGINAL or --rate HZ")
@@ -848,19 +950,24 @@ def decompress(
         _warn_signals(originals)
         t = next(iter(originals.values())).times
     else:
-        if not (math.isfinite(rate) and rate > 0):
-            raise InvalidParameterError(f"--rate must be a positive number, got {rate!r}")
-        n = int(math.floor((pts.times[-1] - pts.times[0]) * rate + 1e-9)) + 1
-        if n > 50_000_000:
-            raise InvalidParameterError(f"--rate {rate:g} over {pts.times[-1] - pts.times[0]:g} s gives {n} samples; too many")
-        t = pts.times[0] + np.arange(n) / rate
-    if len(pts) == 1:
-        vals = np.repeat(normalize(pts.values), len(t), axis=0)
-    else:
-        try:
+        span = float(pts.times[-1] - pts.times[0])
+        n_float = math.floor(span * rate + 1e-9) + 1.0 if math.isfinite(span * rate) else math.inf
+        if n_float > 50_000_000:
+            raise InvalidParameterError(f"--rate {rate:g} over {span:g} s gives {n_float:g} samples; too many")
+        t = pts.times[0] + np.arange(int(n_float)) / rate
+        if t.shape[0] > 1 and not np.all(np.diff(t) > 0):
+            raise InvalidParameterError(f"--rate {rate:g}: the grid's steps vanish in the rounding of times near "
+                                        f"{float(pts.times[0]):g} s; give a lower rate")
+    try:
+        if len(pts) == 1:  # one point: that orientation at every time
+            vals = np.repeat(unit_quaternions(pts.values), len(t), axis=0)
+        else:
             vals = reconstruct_points(pts.times, pts.values, t, "quaternion")
-        except InvalidParameterError as e:
-            raise InvalidParameterError(f"{points}: {e}") from None
+    except InvalidParameterError as e:
+        raise InvalidParameterError(f"{points}: {e}") from None
+    norms = np.sqrt(np.einsum("ij,ij->i", vals, vals)) if len(vals) else np.ones(0)
+    if not (np.all(np.isfinite(vals)) and np.all(np.abs(norms - 1.0) < 1e-9)):  # never a zero-norm or NaN row
+        raise MocapError(f"{points}: the decoded quaternions are not all finite unit quaternions (a bug: please report)")
     write_signal_csv(output, t, vals)
     err.print(f"{points}: {len(pts)} points -> {len(t)} samples in {output}")
 
@@ -910,7 +1017,11 @@ def stream(
 
     def emit(points) -> None:
         for p in points:
-            out.write(",".join(repr(float(v)) for v in (p.time, *p.values)) + "\n")
+            row = (p.time, *p.values)
+            if not all(math.isfinite(v) for v in row):  # an extrapolated point (cplr, swing) out of range
+                raise MocapError(f"<stdin>: the segment point at time {p.time!r} is not finite {row!r}; "
+                                 "the input's values or time steps are out of floating-point range for this method")
+            out.write(",".join(repr(float(v)) for v in row) + "\n")
         if points:
             out.flush()
 
@@ -928,8 +1039,10 @@ def stream(
 def sweep(
     inputs: Annotated[list[Path], typer.Argument(help="IMU files or sensor folders.")],
     out: Annotated[Path, typer.Option("--out", help="Folder for sweep.csv and the figures.")] = Path("sweep-out"),
-    n_thresholds: Annotated[int, typer.Option("--thresholds", help="Thresholds: 0 plus N-1 log-spaced in 1e-6..1e3.")] = 205,
-    max_segment_length: Annotated[int, typer.Option("--max-segment-length")] = 1000,
+    n_thresholds: Annotated[int, typer.Option("--thresholds", help="Thresholds: 0 plus N-1 log-spaced in 1e-6..1e3.",
+                                              callback=_within(2, 100_000))] = 205,
+    max_segment_length: Annotated[int, typer.Option("--max-segment-length",
+                                                    callback=_within(1, MAX_SEGMENT_LENGTH))] = 1000,
     rate: RateOpt = None,
     time_column: TimeColumnOpt = None,
     quaternion_columns: QuatColumnsOpt = None,
@@ -947,6 +1060,7 @@ def sweep(
     from mocapkit.io import load_signals
     from mocapkit.io.loaders import kind_of
 
+    _check_output(out, folder=True, inputs=(*inputs, asf), option="--out")
     if all(kind_of(p) == "skeletal" for p in inputs):
         _sweep_skeletal(inputs, out, asf, unit_cm)
         return
@@ -983,6 +1097,9 @@ def _sweep_skeletal(inputs, out: Path, asf, unit_cm) -> None:
             units[name] = float(v)
         except ValueError:
             raise InvalidParameterError(f"--unit-cm expects NAME=CM, got {item!r}") from None
+        if not UNIT_RANGE[0] <= units[name] <= UNIT_RANGE[1]:  # also refuses nan
+            raise InvalidParameterError(f"--unit-cm {name}: CM must be in [{UNIT_RANGE[0]:g}, {UNIT_RANGE[1]:g}], "
+                                        f"got {v!r}")
     out.mkdir(parents=True, exist_ok=True)
     rows = []
     for p in inputs:
@@ -1001,19 +1118,21 @@ def _sweep_skeletal(inputs, out: Path, asf, unit_cm) -> None:
 @app.command()
 def bench(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON records.")] = False,
-    channels: Annotated[int, typer.Option("--channels", help="Channels in the many-channel batch run.")] = 31,
-    frames: Annotated[int, typer.Option("--frames", help="Frames per channel in the many-channel run.")] = 100_000,
+    channels: Annotated[int, typer.Option("--channels", help="Channels in the many-channel batch run.",
+                                          callback=_within(1, 10_000))] = 31,
+    frames: Annotated[int, typer.Option("--frames", help="Frames per channel in the many-channel run.",
+                                        callback=_within(100, 100_000_000))] = 100_000,
     quick: Annotated[bool, typer.Option("--quick", help="Smaller sizes (for a smoke test).")] = False,
 ) -> None:
     """ns/sample of batch kernels and streaming encoders vs mean segment length; fastSW/SW ratio."""
     from mocapkit.evaluation.bench import run_bench
 
-    if channels < 1 or frames < 100:
-        raise InvalidParameterError("--channels must be >= 1 and --frames >= 100")
+    if channels * frames > 50_000_000:  # (channels, frames, 4) float64 arrays: 1.6 GB each at the limit
+        raise InvalidParameterError(f"--channels {channels} x --frames {frames} is more than 50000000 samples")
     records, summary = run_bench(channels=channels, frames=frames, quick=quick, progress=err)
     if as_json:  # the JSON is the result; the table goes to stderr, so `--json > file` keeps both
         err.print(summary)
-        print(json.dumps(records, indent=1))
+        print(_json(records, "bench --json"))
     else:
         console.print(summary)
 
@@ -1024,7 +1143,9 @@ def demo(
 ) -> None:
     """Compress the bundled x-io lower-body walk (7 IMUs) with every method; print the trade-offs."""
     from mocapkit.evaluation.demo import run_demo
+    from mocapkit.io import sample_data_path
 
+    _check_output(out, folder=True, inputs=(sample_data_path(),), option="--out")
     run_demo(out, err)
 
 
@@ -1069,14 +1190,17 @@ def segment(
     labels: Annotated[Optional[Path], typer.Option("--labels", help="Reference labels (CMU-86 HACA or mocap6 per-frame): scored and plotted.")] = None,
     joint: Annotated[Optional[list[str]], typer.Option("--joint", help="ROLE=JOINT overrides of the joint map (e.g. spine=Spine3).")] = None,
     train: Annotated[Optional[list[str]], typer.Option("--train", help="MOTION=LABELS takes to train --method mlp on (repeat).")] = None,
-    rate: Annotated[Optional[float], typer.Option("--rate", help="Frame rate of an AMC file (default 120 Hz).")] = None,
-    downsample: Annotated[Optional[int], typer.Option("--downsample", help="ARMA: keep every N-th frame (default: the factor nearest to 30 Hz).")] = None,
+    rate: Annotated[Optional[float], typer.Option("--rate", help="Frame rate of an AMC file (default 120 Hz).",
+                                                  callback=_within(*RATE_RANGE))] = None,
+    downsample: Annotated[Optional[int], typer.Option("--downsample", help="ARMA: keep every N-th frame (default: the factor nearest to 30 Hz).",
+                                                      callback=_within(1, 1_000_000))] = None,
 ) -> None:
     """Cut a take into actions from its limb-bone angles (the ARMA method or a baseline)."""
     from mocapkit.io.loaders import load_motion
     from mocapkit.segment.features import LIMB_NAMES, motion_features, pose_features
 
-    _check_output(plot)
+    _check_output(plot, source=input, option="--plot",
+                  inputs=(asf, labels, *[Path(x.strip()) for it in train or [] for x in it.split("=", 1)]))
     motion = load_motion(input, asf=asf, rate=rate)
     rate_hz = float(motion.rate)
     # the labels are read and checked against the take before any segmenting
@@ -1121,7 +1245,7 @@ def segment(
 
             rec["reference_cuts"] = [int(c) for c in ref.cuts]
             rec["scores"] = score(cuts, ref)
-        print(json.dumps(rec, indent=1))
+        print(_json(rec, f"{input}: segment --json"))
     else:
         console.print(f"{input.name}: {len(cuts)} cuts ({m}, {motion.n_frames} frames at {rate_hz:g} Hz)")
         tab = Table()
@@ -1149,13 +1273,15 @@ def segment(
 def segment_bench(
     takes: Annotated[Optional[list[str]], typer.Argument(help="Labelled takes: TAKE=LABELS pairs or folders of takes with TAKE.labels.txt beside them (default: the shared CMU set).")] = None,
     asf: Annotated[Optional[Path], typer.Option("--asf", help="ASF skeleton for AMC takes.")] = None,
-    rate: Annotated[Optional[float], typer.Option("--rate", help="Frame rate of AMC takes (default 120 Hz).")] = None,
+    rate: Annotated[Optional[float], typer.Option("--rate", help="Frame rate of AMC takes (default 120 Hz).",
+                                                  callback=_within(*RATE_RANGE))] = None,
     data: Annotated[Path, typer.Option("--data", help="The shared data folder (cmu/ and tssb/).")] = Path("../shared/data"),
     out: Annotated[Optional[Path], typer.Option("--out", help="Folder for segment_bench.json and .md.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print all rows as JSON.")] = False,
     methods: Annotated[str, typer.Option("--methods", help="Comma-separated methods.")] = "arma,pca,kmeans,mlp,kernelcpd,pelt,clasp",
     tssb: Annotated[Optional[bool], typer.Option("--tssb/--no-tssb", help="Also run the 75 TSSB series (default: only without TAKES).")] = None,
-    tssb_limit: Annotated[Optional[int], typer.Option("--tssb-limit", help="Only the first N TSSB series.")] = None,
+    tssb_limit: Annotated[Optional[int], typer.Option("--tssb-limit", help="Only the first N TSSB series.",
+                                                      callback=_within(1, 1_000_000))] = None,
     known_k: Annotated[bool, typer.Option("--known-k", help="Add rows given the true number of cuts (separate mode).")] = False,
 ) -> None:
     """Every segmentation method on labelled takes (yours, or the shared CMU set) and on TSSB: RI, F1,
@@ -1166,7 +1292,9 @@ def segment_bench(
     ms = [m.strip() for m in methods.split(",") if m.strip()]
     bad = [m for m in ms if m not in MOCAP_METHODS]
     if bad:
-        raise InvalidParameterError(f"unknown method(s) {bad}; choose from {', '.join(MOCAP_METHODS)}")
+        raise InvalidParameterError(f"--methods: unknown method(s) {bad}; choose from {', '.join(MOCAP_METHODS)}")
+    _check_output(out, folder=True, option="--out",
+                  inputs=(data, asf, *[Path(x.strip()) for it in takes or [] for x in str(it).split("=", 1)]))
     cmu_dir, tssb_dir = data / "cmu", data / "tssb"
     log = (lambda s: err.print(s)) if not as_json else None
     if takes:
@@ -1186,31 +1314,85 @@ def segment_bench(
             raise InvalidParameterError(f"{tssb_dir} not found (or use --no-tssb)")
         trows = run_tssb(tssb_dir, [m for m in ms if m in TSSB_METHODS], limit=tssb_limit, log=log)
     md = markdown(rows, trows)
+    text = _json({"cmu": rows, "tssb": trows, "summary": summarise(rows, trows)}, "segment-bench results")
     if out is not None:
         from mocapkit.io.atomic import atomic_write_text
 
         out.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(out / "segment_bench.json", json.dumps({"cmu": rows, "tssb": trows,
-                                                                  "summary": summarise(rows, trows)}, indent=1))
+        atomic_write_text(out / "segment_bench.json", text)
         atomic_write_text(out / "segment_bench.md", md)
     if as_json:
-        print(json.dumps({"cmu": rows, "tssb": trows, "summary": summarise(rows, trows)}, indent=1))
+        print(text)
     else:
         print(md)
 
 
-def main() -> None:
+#: typer's click exceptions (usage errors: missing argument, unknown option, a value that is not a
+#: number...), reached through the public ``typer.BadParameter`` whether typer vendors click or not
+_ClickException = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+_UsageError = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
+EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 2, 3, 130
+
+
+def _one_line(text) -> str:
+    return " ".join(part.strip() for part in str(text).splitlines() if part.strip())
+
+
+def _fail(message: str, code: int) -> None:
+    import os
+    import traceback
+
+    if os.environ.get("MOCAPKIT_DEBUG", "") not in ("", "0"):
+        traceback.print_exc()
+    sys.stderr.write(f"error: {_one_line(message)}\n")
+    sys.exit(code)
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Python warnings (a reader's ``MocapWarning``...) as one line ``warning: ...`` each, once per text."""
+    text = _one_line(message)
+    if text not in _SHOWN_WARNINGS:
+        _SHOWN_WARNINGS.add(text)
+        sys.stderr.write(f"warning: {text}\n")
+
+
+_SHOWN_WARNINGS: set[str] = set()
+
+
+def main(argv: list[str] | None = None) -> None:
+    """The ``mocapkit`` entry point: every failure is one line ``error: ...`` on stderr.
+
+    Exit codes: 0 success; 2 bad input, option or usage (a ``MocapError``, an ``OSError`` or a
+    usage error of the command line); 3 an internal error (an exception mocapkit did not raise on
+    purpose: a bug, please report it); 130 interrupted. ``MOCAPKIT_DEBUG=1`` adds the traceback.
+    """
+    import warnings
+
+    warnings.showwarning = _show_warning
     try:
-        app()
+        code = app(args=argv, prog_name="mocapkit", standalone_mode=False)
+    except _ClickException as e:
+        if type(e).__name__ == "NoArgsIsHelpError":  # bare `mocapkit` / `mocapkit sweep`: the help
+            e.show()
+            sys.exit(EXIT_INPUT)
+        ctx = getattr(e, "ctx", None)
+        hint = f" (see {ctx.command_path} --help)" if ctx is not None and isinstance(e, _UsageError) else ""
+        _fail(f"{e.format_message()}{hint}", EXIT_INPUT)
     except MocapError as e:
-        sys.stderr.write(f"error: {e}\n")
-        sys.exit(2)
+        _fail(str(e), EXIT_INPUT)
+    except KeyboardInterrupt:
+        sys.exit(EXIT_INTERRUPTED)
+    except typer.Abort:
+        _fail("aborted", EXIT_INTERRUPTED)
+    except MemoryError:
+        _fail("out of memory (an input or option asks for more than this machine has)", EXIT_INTERNAL)
     except OSError as e:
         where = f"{e.filename}: " if getattr(e, "filename", None) else ""
-        sys.stderr.write(f"error: {where}{e.strerror or e}\n")
-        sys.exit(2)
-    except KeyboardInterrupt:
-        sys.exit(130)
+        _fail(f"{where}{e.strerror or e}", EXIT_INPUT)
+    except Exception as e:  # a bug: one line, never a silent success; the traceback on request
+        _fail(f"internal error: {type(e).__name__}: {e} (please report it; MOCAPKIT_DEBUG=1 shows the traceback)",
+              EXIT_INTERNAL)
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 if __name__ == "__main__":

@@ -42,5 +42,14 @@ class InvalidParameterError(MocapError):
     """A parameter is out of its domain (negative threshold, unknown method, ...)."""
 
 
+class UnreachableTargetError(InvalidParameterError):
+    """A target (a compression ratio...) that no value of the tuned parameter reaches."""
+
+
 class BoundViolationError(MocapError):
     """A guaranteed error bound was found violated on the output (a bug: please report it)."""
+
+
+class MocapWarning(UserWarning):
+    """A file was read but something in it looks wrong (e.g. a last value that seems cut short);
+    issued with :func:`warnings.warn` and also recorded in the result's ``meta["warnings"]``."""

@@ -55,6 +55,7 @@ __all__ = [
 _CONTROL_RE = re.compile(r"[\x00-\x1f\x7f\ud800-\udfff]")
 _AXES = ("x", "y", "z")
 _UNIT_RE = re.compile(r"^(.*_[xyzXYZ])\s*\(([^()]+)\)$")  # "<label>_x (mm)"
+_MISSING = ("", "nan", "NaN")  # the wide CSV's missing coordinate (to_csv writes "nan")
 
 
 # --------------------------------------------------------------------------------------------------
@@ -370,12 +371,20 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str | N
     frame): pass it when you know it. The length unit is the header's; ``units`` gives it for a file
     that does not state it (default ``"mm"``, recorded as an assumption in ``meta["warnings"]``) and
     must agree with the header when both exist.
+
+    Numbers follow the strict grammar of :mod:`mocapkit.io.numbers` (``nan``/``NaN``/empty are the
+    only missing spellings; ``inf``, ``0_5`` and ``|value| > 1e12`` are errors naming line and column).
+    A last line written without a newline whose last value has fewer decimals than that column on
+    the rows before it is an error (the file was cut short); when that cannot be told (``repr``
+    numbers vary in length) the row is read with a warning. Pipes are read in bounded chunks.
     """
-    from mocapkit.io.atomic import read_file_bytes  # the model imports io lazily only
+    from mocapkit.io.numbers import parse_number  # the model imports io lazily only
+    from mocapkit.io.textinput import check_cells_budget, final_line_verdict, read_input, report_final_line
 
     p = Path(path)
     src = str(p)
-    data = read_file_bytes(p, "CSV file")
+    data = read_input(p, "CSV file")
+    ends_with_newline = data.endswith((b"\n", b"\r"))
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
     try:
@@ -386,6 +395,7 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str | N
     lines = [ln[:-1] if ln.endswith("\r") else ln for ln in text.split("\n")]
     while lines and not lines[-1].strip():
         lines.pop()
+        ends_with_newline = True
     if not lines:
         raise MocapFormatError(src, 1, "empty file (expected a header 'time,<label>_x,...')")
     try:
@@ -429,17 +439,22 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str | N
             raise MocapFormatError(src, 1, f"columns {j + 1}-{j + 3} ({', '.join(trio)}) are not one marker's x, y, z")
         labels.append(stems[0])
     ncol = len(header)
+    check_cells_budget(src, 1, (len(lines) - 1) * ncol, len(data), f"{len(lines) - 1} rows of {ncol} columns")
     values = np.empty((len(lines) - 1, ncol), dtype=np.float64)
+    fields = [f"column {j + 1} ({h})" for j, h in enumerate(header)]
+    last = len(lines) - 2
     for i, ln in enumerate(lines[1:]):
         cells = ln.split(",")
         if len(cells) != ncol:
-            raise MocapFormatError(src, i + 2, f"expected {ncol} comma-separated values, found {len(cells)}")
+            cut = (" (the file ends in this line without a newline: it was cut short)"
+                   if i == last and not ends_with_newline else "")
+            raise MocapFormatError(src, i + 2, f"expected {ncol} comma-separated values, found {len(cells)}{cut}")
+        if i == last and not ends_with_newline:
+            verdict, j = final_line_verdict([r.split(",") for r in lines[max(1, i - 19):i + 1]], cells)
+            report_final_line(src, i + 2, verdict, j, fields[j] if j is not None else "the last value",
+                              cells[j] if j is not None else "", warnings)
         for j, c in enumerate(cells):
-            c = c.strip()
-            try:
-                values[i, j] = float(c) if c else math.nan
-            except ValueError:
-                raise MocapFormatError(src, i + 2, f"column {j + 1} ({header[j]}): {c[:40]!r} is not a number") from None
+            values[i, j] = parse_number(c.strip(), src, i + 2, fields[j], missing=_MISSING)
     if values.shape[0] == 0:
         raise MocapFormatError(src, 1, "no data rows")
     times = values[:, 0]

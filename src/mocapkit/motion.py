@@ -63,6 +63,9 @@ class Signal:
             raise InvalidSignalError(f"{where}: sample {i} has a NaN or infinite value")
         if not np.isfinite((t[-1] - t[0]) ** 2):
             raise InvalidSignalError(f"{where}: the time span {t[-1] - t[0]!r} s is too large to compute with")
+        span = float(t[-1] - t[0])
+        if t.shape[0] > 1 and span > 0 and (t.shape[0] - 1) / 1e300 > span:  # the mean rate would overflow
+            raise InvalidSignalError(f"{where}: the time span {span!r} s is too small (the rate overflows)")
         bad = np.flatnonzero(np.diff(t) <= 0)
         if bad.size:
             i = int(bad[0])

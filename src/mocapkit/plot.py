@@ -18,9 +18,11 @@ def _save(fig, path: Path) -> Path:
     from mocapkit.io.atomic import atomic_writer
 
     path = Path(path)
-    with atomic_writer(path, binary=True) as fh:
-        fig.savefig(fh, format="png", dpi=120)
-    plt.close(fig)
+    try:
+        with atomic_writer(path, binary=True) as fh:  # a device or pipe is written into, a file replaced
+            fig.savefig(fh, format="png", dpi=120)
+    finally:
+        plt.close(fig)  # also when writing fails
     return path
 
 

@@ -1,5 +1,8 @@
 """Skeletons and skeletal motion; forward kinematics vectorised over all frames.
 
+Nothing here recurses over the hierarchy: helpers walk the joints in index order (parents come
+first) or with an explicit stack, so a chain of any depth (10,000 joints and more) works.
+
 A :class:`Skeleton` is a list of joints in topological order (every parent before its children;
 ``parents[j] = -1`` for a root; several roots are allowed). A :class:`Motion` holds, per frame and
 joint, the *local* rotation (scalar-first unit quaternion) and the *local* translation relative to
@@ -20,6 +23,11 @@ from mocapkit.errors import InvalidSignalError
 
 POSITION_CHANNELS = ("Xposition", "Yposition", "Zposition")
 ROTATION_CHANNELS = ("Xrotation", "Yrotation", "Zrotation")
+
+#: Joint-frames a reader builds at most when the file does not hold a value for each of them (a
+#: joint-frame takes 56 bytes as rotation + translation: 20 million is 1.1 GB). Files with at least
+#: one channel value per joint-frame are bounded by their own size instead.
+MAX_JOINT_FRAMES = 20_000_000
 
 
 @dataclass(frozen=True)
@@ -54,16 +62,22 @@ class Skeleton:
         J = len(self.names)
         if p.shape != (J,) or o.shape != (J, 3) or len(self.channels) != J:
             raise InvalidSignalError(f"skeleton arrays disagree: {J} names, parents {p.shape}, offsets {o.shape}")
-        if len(set(self.names)) != J:
-            dup = sorted({n for n in self.names if self.names.count(n) > 1})
-            raise InvalidSignalError(f"duplicate joint names: {dup}")
-        for j in range(J):
-            if not (-1 <= p[j] < j):
-                raise InvalidSignalError(f"joint {self.names[j]!r}: parent index {p[j]} is not an earlier joint")
+        index = {n: j for j, n in enumerate(self.names)}
+        if len(index) != J:
+            dup = sorted({n for j, n in enumerate(self.names) if index[n] != j})
+            raise InvalidSignalError(f"duplicate joint names: {dup[:10]}")
+        bad = np.flatnonzero((p < -1) | (p >= np.arange(J)))
+        if bad.size:
+            j = int(bad[0])
+            raise InvalidSignalError(f"joint {self.names[j]!r}: parent index {p[j]} is not an earlier joint")
+        if not np.all(np.isfinite(o)):
+            j = int(np.flatnonzero(~np.isfinite(o).all(axis=1))[0])
+            raise InvalidSignalError(f"joint {self.names[j]!r}: offset {o[j].tolist()} is not finite")
         p.setflags(write=False)
         o.setflags(write=False)
         object.__setattr__(self, "parents", p)
         object.__setattr__(self, "offsets", o)
+        object.__setattr__(self, "_index", index)
 
     @property
     def n_joints(self) -> int:
@@ -71,12 +85,41 @@ class Skeleton:
 
     def index(self, name: str) -> int:
         try:
-            return self.names.index(name)
-        except ValueError:
+            return self._index[name]
+        except KeyError:
             raise KeyError(f"no joint named {name!r}") from None
 
     def children(self, j: int) -> list[int]:
-        return [k for k in range(self.n_joints) if self.parents[k] == j]
+        """Joints whose parent is ``j``, in index order."""
+        return np.flatnonzero(self.parents == j).tolist()
+
+    def children_lists(self) -> list[list[int]]:
+        """``children_lists()[j]`` = :meth:`children` of ``j`` for every joint, in one pass."""
+        out: list[list[int]] = [[] for _ in range(self.n_joints)]
+        for k, p in enumerate(self.parents.tolist()):
+            if p >= 0:
+                out[p].append(k)
+        return out
+
+    def depth_first(self) -> list[int]:
+        """Joints in depth-first pre-order (roots in index order, children in index order); iterative,
+        so any depth works. Every joint's subtree is then a contiguous run of this list."""
+        kids = self.children_lists()
+        stack = [j for j in range(self.n_joints - 1, -1, -1) if self.parents[j] < 0]
+        out: list[int] = []
+        while stack:
+            j = stack.pop()
+            out.append(j)
+            stack.extend(reversed(kids[j]))
+        return out
+
+    def depths(self) -> np.ndarray:
+        """``(J,)`` number of ancestors of every joint (0 for a root), in one pass."""
+        d = np.zeros(self.n_joints, dtype=np.int64)
+        for j, p in enumerate(self.parents.tolist()):
+            if p >= 0:
+                d[j] = d[p] + 1
+        return d
 
     @property
     def n_channels(self) -> int:
@@ -125,8 +168,17 @@ class Motion:
         N = t.shape[0]
         if r.shape != (N, J, 4) or x.shape != (N, J, 3):
             raise InvalidSignalError(f"motion arrays: times {t.shape}, rotations {r.shape}, translations {x.shape}; J={J}")
+        if not np.all(np.isfinite(t)):
+            raise InvalidSignalError("motion times must be finite")
         if N > 1 and np.any(np.diff(t) <= 0):
             raise InvalidSignalError("motion times must be strictly increasing")
+        for what, a in (("rotations", r), ("translations", x)):
+            if not np.all(np.isfinite(a)):
+                n, j = (int(v[0]) for v in np.nonzero(~np.isfinite(a).all(axis=-1)))
+                raise InvalidSignalError(f"motion {what}: joint {self.skeleton.names[j]!r} frame {n} is not finite")
+        if N and J and not np.all(np.abs(r).max(axis=-1) > 0):
+            n, j = (int(v[0]) for v in np.nonzero(~(np.abs(r).max(axis=-1) > 0)))
+            raise InvalidSignalError(f"motion rotations: joint {self.skeleton.names[j]!r} frame {n} is a zero quaternion")
         object.__setattr__(self, "times", t)
         object.__setattr__(self, "rotations", r)
         object.__setattr__(self, "translations", x)

@@ -145,7 +145,8 @@ def evaluate_juggling(markers, balls, penalty: float | None = None, unit_m: floa
                 if sel.sum() > 10:
                     stds.append(float(ab[sel].std()))
                     means.append(float(ab[sel].mean()))
-        rec.update({"butterworth_fc_hz": float(fc), "butterworth_flight_acc_std": stds,
+        rec.update({"butterworth_fc_hz": float(fc) if e - a >= 30 else None,  # None: no run long enough
+                    "butterworth_flight_acc_std": stds,
                     "butterworth_flight_acc_mean": means})
         cycles = max(len(fl), 1)
         rec["parameters_per_cycle"] = float((len(r.pieces) * 3 + r.n_knots) / cycles)

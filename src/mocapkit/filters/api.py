@@ -13,6 +13,10 @@ from mocapkit.filters.exact import solve_exact
 from mocapkit.filters.penalty import choose_knot_cost
 from mocapkit.filters.ppa import fit_iterative
 
+#: highest polynomial order accepted: beyond it the chunk fits are ill-conditioned (powers of the
+#: time offset span hundreds of decades) and no motion signal needs it
+MAX_ORDER = 10
+
 
 @dataclass(frozen=True)
 class FilterResult:
@@ -91,8 +95,14 @@ def fit(t, y, order: int = 2, penalty: float | None = None, solver: str = "exact
     t, Y = as_2d(t, y)
     if solver not in ("iterative", "exact"):
         raise InvalidParameterError(f"solver must be 'iterative' or 'exact', got {solver!r}")
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 0 <= order <= MAX_ORDER:
+        raise InvalidParameterError(f"the order must be an integer in 0..{MAX_ORDER}, got {order!r}")
+    if init_chunk is not None and not (isinstance(init_chunk, (int, np.integer)) and init_chunk >= 1):
+        raise InvalidParameterError(f"the initial chunk length must be an integer >= 1, got {init_chunk!r}")
     if max_gap is None:
         max_gap = 10.0 * float(np.median(np.diff(t))) if t.shape[0] > 1 else 1.0
+    elif not (math.isfinite(float(max_gap)) and float(max_gap) > 0):
+        raise InvalidParameterError(f"the maximum gap must be a finite number > 0, got {max_gap!r}")
     if penalty is not None and not (float(penalty) >= 0 and math.isfinite(float(penalty))):
         raise InvalidParameterError(f"the penalty must be a finite number >= 0, got {penalty!r}")
     ranges = []

@@ -120,7 +120,8 @@ def solve_exact(t, y, order: int = 2, penalty: float = 1.0, incumbent: Piecewise
         incumbent = build(t, Y, [], order, penalty)
     L_star = incumbent.loss * (1 + 1e-12) + 1e-300
     cap = n // (order + 1) - 1
-    kmax = cap if penalty == 0 else min(cap, int(L_star / penalty) + 1)
+    # L*/K may overflow to inf for a tiny (denormal) K: compare as floats before converting
+    kmax = cap if penalty == 0 or L_star / penalty >= cap else min(cap, int(L_star / penalty) + 1)
     if max_knots is not None:
         kmax = min(kmax, int(max_knots))
     kmax = max(kmax, 0)

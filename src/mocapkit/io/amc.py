@@ -23,6 +23,22 @@ bone-length dof ``l`` are not supported (CMU never uses them) and are reported a
 Anything malformed raises :class:`~mocapkit.errors.MocapFormatError` with the file and the 1-based
 line (``None`` when the problem concerns the whole file).
 
+Numbers (ASF lengths, directions, axis angles, limits, units; AMC values) follow the strict grammar
+of :mod:`mocapkit.io.numbers`: no ``0_5``, no ``nan``, no ``inf`` (neither format has a missing-value
+convention; the one exception is the Acclaim ``(-inf inf)`` of ASF ``limits``, meaning no limit), and
+``|value| <= MAX_ABS``; the error names the line and the field (``bone lfemur``, ``length``).
+``:units length`` must lie in ``[1e-6, 1e6]`` and the frame rate in ``[1e-6, 1e6]`` Hz. The hierarchy
+is walked with explicit stacks (no recursion, any depth) and the work is linear in the number of
+bones. A frame count times bone count that would build more than
+:data:`~mocapkit.skeleton.MAX_JOINT_FRAMES` joint-frames without a value per joint-frame is refused.
+
+End of file: an AMC file cut short is recognised when it has no final newline. A last bone line with
+too few values, a cut bone name or a last frame without all its bones is an error that says so; a
+last line with the right count whose last value has fewer decimals (or exponent digits) than that
+value in every one of the up to 100 earlier lines of the bone (``-0`` for ``-0.124044``) is read with a
+warning (``Motion.meta["warnings"]`` and :func:`warnings.warn`, category
+:class:`~mocapkit.errors.MocapWarning`).
+
 Model mapping
 -------------
 * Every ASF bone becomes a joint located at the bone's *start*; the root is joint 0 and is named
@@ -83,10 +99,11 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapError, MocapFormatError
+from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapError, MocapFormatError, MocapWarning
 from mocapkit.io.atomic import atomic_write_text
+from mocapkit.io.numbers import MAX_ABS, looks_cut, parse_number
 from mocapkit.quat import from_scipy, multiply, to_scipy
-from mocapkit.skeleton import Motion, Skeleton
+from mocapkit.skeleton import MAX_JOINT_FRAMES, Motion, Skeleton
 
 __all__ = [
     "CMU_RATE",
@@ -105,6 +122,9 @@ __all__ = [
 
 #: Frame rate of the CMU database (Hz), the default rate of :func:`read_amc`.
 CMU_RATE = 120.0
+MIN_RATE, MAX_RATE = 1e-6, 1e6  # Hz: frame times from 1 µs to 11.6 days
+#: ``:units length`` accepted (file units per inch; CMU 0.45): lengths in cm stay far from overflow.
+MIN_LENGTH_UNIT, MAX_LENGTH_UNIT = 1e-6, 1e6
 ROOT_CHANNELS = ("Xposition", "Yposition", "Zposition", "Zrotation", "Yrotation", "Xrotation")
 JOINT_CHANNELS = ("Zrotation", "Yrotation", "Xrotation")
 
@@ -129,9 +149,9 @@ def _short(text: str, limit: int = 60) -> str:
 
 
 def _read_bytes(path: str | Path) -> tuple[str, bytes]:
-    from mocapkit.io.atomic import read_file_bytes
+    from mocapkit.io.textinput import read_input
 
-    return str(Path(path)), read_file_bytes(path)
+    return str(Path(path)), read_input(path, "text file")
 
 
 def _decode(data: bytes) -> str:
@@ -160,17 +180,16 @@ def _check_text(src: str, ln: int, line: str) -> None:
 
 
 def _number(src: str, ln: int, tok: str, what: str, allow_inf: bool = False) -> float:
-    if not tok.isascii() or "_" in tok:
-        raise MocapFormatError(src, ln, f"{what}: {_short(tok)} is not a number")
-    try:
-        v = float(tok)
-    except ValueError:
-        raise MocapFormatError(src, ln, f"{what}: {_short(tok)} is not a number") from None
-    if math.isnan(v):
+    """One value by the strict grammar of :mod:`mocapkit.io.numbers` (``|v| <= MAX_ABS``); ``inf``
+    spelled out only where ``allow_inf`` (ASF limits: the Acclaim ``(-inf inf)`` convention)."""
+    word = tok.lower().lstrip("+-")
+    if word == "nan":
         raise MocapFormatError(src, ln, f"{what} is NaN")
-    if math.isinf(v) and not allow_inf:
+    if word in ("inf", "infinity"):
+        if allow_inf:
+            return -math.inf if tok.startswith("-") else math.inf
         raise MocapFormatError(src, ln, f"{what} is infinite ({_short(tok)})")
-    return v
+    return parse_number(tok, src, ln, what)
 
 
 def _numbers(src: str, ln: int, toks: list[str], n: int, what: str) -> tuple[float, ...]:
@@ -263,6 +282,7 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
     root: dict = {}
     root_lines: dict[str, int] = {}
     bones: list[_Bone] = []
+    bone_lines: dict[str, int] = {}  # name -> line of its 'begin'
     cur: _Bone | None = None
     hier_state = 0  # 0 before begin, 1 inside, 2 after end
     hier_begin = 0
@@ -315,6 +335,10 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
                 (v,) = _numbers(src, ln, args, 1, f"units {key}")
                 if v <= 0:
                     raise MocapFormatError(src, ln, f"units {key} must be positive, got {args[0]}")
+                if key == "length" and not MIN_LENGTH_UNIT <= v <= MAX_LENGTH_UNIT:
+                    raise MocapFormatError(
+                        src, ln, f"units length {args[0]} is not between {MIN_LENGTH_UNIT:g} and {MAX_LENGTH_UNIT:g}"
+                    )
                 units[key] = v
             elif key == "angle":
                 if len(args) != 1 or args[0].lower() not in ("deg", "rad"):
@@ -352,7 +376,7 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
                 )
             root_lines[key] = ln
         elif section == "bonedata":
-            cur = _bone_line(src, ln, key, t0, args, toks, cur, bones)
+            cur = _bone_line(src, ln, key, t0, args, toks, cur, bones, bone_lines)
         elif section == "hierarchy":
             if key == "begin" and not args:
                 if hier_state != 0:
@@ -416,12 +440,14 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
             raise MocapFormatError(
                 src, b.fields["name"], f"bone {_short(b.name)} is not attached anywhere in :hierarchy"
             )
-    # cycles: with one parent each, a bone that does not reach the root lies on (or hangs off) a cycle
+    # cycles: with one parent each, a bone that does not reach the root lies on (or hangs off) a
+    # cycle. Each bone is walked up once: a walk stops at a bone already known to reach the root.
+    reaches = {_ROOT_NAME}
     for b in bones:
         path = [b.name]
         seen_here = {b.name}
         p = parent_of[b.name][0]
-        while p != _ROOT_NAME:
+        while p not in reaches:
             if p in seen_here:
                 cyc = path[path.index(p):] + [p]
                 raise MocapFormatError(
@@ -430,6 +456,7 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
             path.append(p)
             seen_here.add(p)
             p = parent_of[p][0]
+        reaches.update(path)
 
     order: list[str] = []
     stack = [_ROOT_NAME]
@@ -499,7 +526,7 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
 
 
 def _bone_line(src: str, ln: int, key: str, t0: str, args: list[str], toks: list[str],
-               cur: _Bone | None, bones: list[_Bone]) -> _Bone | None:
+               cur: _Bone | None, bones: list[_Bone], first_line: dict[str, int]) -> _Bone | None:
     if key == "begin" and not args:
         if cur is not None:
             raise MocapFormatError(src, ln, f"'begin' inside the bone block opened on line {cur.line} (missing 'end')")
@@ -518,13 +545,13 @@ def _bone_line(src: str, ln: int, key: str, t0: str, args: list[str], toks: list
             raise MocapFormatError(
                 src, ln, f"bone {_short(cur.name)}: {len(cur.limits)} limit pair(s) for {len(cur.dofs)} dof(s)"
             )
-        for b in bones:
-            if b.name == cur.name:
-                raise MocapFormatError(
-                    src, cur.fields["name"], f"bone {_short(cur.name)} defined twice (first at line {b.line})"
-                )
+        if cur.name in first_line:
+            raise MocapFormatError(
+                src, cur.fields["name"], f"bone {_short(cur.name)} defined twice (first at line {first_line[cur.name]})"
+            )
         cur.end_line = ln
         bones.append(cur)
+        first_line[cur.name] = cur.line
         return None
     # a continuation line of 'limits': numbers only
     if cur.last_key == "limits" and _looks_numeric(t0):
@@ -620,6 +647,8 @@ def _check_rate(rate) -> float:
         raise InvalidParameterError(f"rate must be a finite positive number of Hz, got {rate!r}") from None
     if not (math.isfinite(r) and r > 0):
         raise InvalidParameterError(f"rate must be a finite positive number of Hz, got {rate!r}")
+    if not MIN_RATE <= r <= MAX_RATE:
+        raise InvalidParameterError(f"rate must be between {MIN_RATE:g} and {MAX_RATE:g} Hz, got {rate!r}")
     return r
 
 
@@ -683,13 +712,23 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
     seen: set[str] = set()
     isfinite = math.isfinite
 
-    def close_frame() -> None:
+    end = len(text)
+    while end and text[end - 1] in " \t\f\v":
+        end -= 1
+    final_newline = end == 0 or text[end - 1] in "\r\n"
+    last_line = len(lines)  # a line cut short can only be the last one, when there is no final newline
+
+    def cut(ln: int | None) -> str:
+        return "" if final_newline or ln != last_line else " (the file ends on this line without a final newline: cut short?)"
+
+    def close_frame(at_end: bool = False) -> None:
         if not required <= seen:
             missing = sorted(required - seen)
             raise MocapFormatError(
                 src, frame_lines[-1],
                 f"frame {frame_numbers[-1]} has no line for bone(s) {', '.join(missing[:5])}"
-                + (f" and {len(missing) - 5} more" if len(missing) > 5 else ""),
+                + (f" and {len(missing) - 5} more" if len(missing) > 5 else "")
+                + (" (the file ends without a final newline: cut short?)" if at_end and not final_newline else ""),
             )
 
     for ln, line in enumerate(lines, 1):
@@ -717,6 +756,8 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
             header[kw] = ln
             continue
         if len(toks) == 1 and t0.isascii() and t0.isdigit() and t0 not in ndof:
+            if len(t0) > 18:
+                raise MocapFormatError(src, ln, f"frame number {_short(t0)} is too large")
             num = int(t0)
             if frame_numbers:
                 close_frame()
@@ -732,15 +773,17 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
         k = ndof.get(t0)
         if k is None:
             if len(toks) == 1:
-                raise MocapFormatError(src, ln, f"{_short(t0)} is neither a frame number nor a bone of the skeleton")
-            raise MocapFormatError(src, ln, f"unknown bone {_short(t0)} (not in the skeleton)")
+                raise MocapFormatError(
+                    src, ln, f"{_short(t0)} is neither a frame number nor a bone of the skeleton{cut(ln)}"
+                )
+            raise MocapFormatError(src, ln, f"unknown bone {_short(t0)} (not in the skeleton){cut(ln)}")
         if not frame_numbers:
             raise MocapFormatError(src, ln, f"bone line {_short(t0)} before the first frame number")
         if t0 in seen:
             raise MocapFormatError(src, ln, f"bone {_short(t0)} appears twice in frame {frame_numbers[-1]}")
         if len(toks) - 1 != k:
             raise MocapFormatError(
-                src, ln, f"bone {_short(t0)} has {k} dof(s) but the line holds {len(toks) - 1} value(s)"
+                src, ln, f"bone {_short(t0)} has {k} dof(s) but the line holds {len(toks) - 1} value(s){cut(ln)}"
             )
         seen.add(t0)
         if k == 0:
@@ -760,9 +803,22 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
     state["line"] = None
     if not frame_numbers:
         raise MocapFormatError(src, None, "no frames (expected a frame number line such as '1')")
-    close_frame()
+    close_frame(at_end=True)
 
     N = len(frame_numbers)
+    J = sk.n_joints
+    n_values = N * sum(ndof[n] for n in required)
+    if N * J > max(MAX_JOINT_FRAMES, n_values):
+        raise MocapFormatError(
+            src, None, f"{N} frames × {J} bones is more than this reader builds (at most {MAX_JOINT_FRAMES:,} "
+            "joint-frames unless there is a value per joint-frame)"
+        )
+    notes = []
+    if not final_newline:
+        note = _cut_note(lines, last_line, ndof)
+        if note:
+            notes.append(note)
+            warnings.warn(f"{src}: {note}", MocapWarning, stacklevel=4)
     if ":DEGREES" in header and ":RADIANS" in header:
         raise MocapFormatError(src, header[":RADIANS"], ":RADIANS contradicts :DEGREES")
     if ":DEGREES" in header:
@@ -773,9 +829,12 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
         deg = asf["units"]["angle"] == "deg"
 
     arrays = {n: np.asarray(v, dtype=np.float64).reshape(N, ndof[n]) for n, v in values.items()}
-    J = sk.n_joints
+    for n, a in arrays.items():  # magnitudes in bulk (the per-line fast path checked finiteness only)
+        big = np.flatnonzero(~(np.abs(a) <= MAX_ABS).all(axis=1))
+        if big.size:
+            _report_value(src, lines, frame_lines[int(big[0])], n)
     rotations = np.zeros((N, J, 4))
-    rotations[:, :, 0] = 1.0
+    rotations[:, :, 0] = 1.0  # allocated after the size check above
     translations = np.broadcast_to(sk.offsets, (N, J, 3)).copy()
 
     # root
@@ -789,12 +848,11 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
         if r_cols:
             seq = "".join(root_order[i][1] for i in r_cols)
             rotations[:, 0] = _conjugated(asf["axis_quat"][_ROOT_NAME], _euler(seq, rv[:, r_cols], deg))
-    names = sk.names
     for n, b in asf["bones"].items():
         if not b["dofs"]:
             continue
         seq = "".join(d[1] for d in b["dofs"])
-        rotations[:, names.index(n)] = _conjugated(asf["axis_quat"][n], _euler(seq, arrays[n], deg))
+        rotations[:, sk.index(n)] = _conjugated(asf["axis_quat"][n], _euler(seq, arrays[n], deg))
     if not np.all(np.isfinite(translations)):
         raise MocapFormatError(src, None, "root translation overflows")
 
@@ -808,10 +866,42 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
         "length_unit_cm": sk.meta.get("length_unit_cm"),
         "amc_values": arrays,
     }
+    if notes:
+        meta["warnings"] = notes
     try:
         return Motion(sk, np.arange(N) / rate, rotations, translations, None, src, meta)
     except InvalidSignalError as exc:
         raise MocapFormatError(src, None, str(exc)) from None
+
+
+def _report_value(src: str, lines: list[str], frame_line: int, bone: str) -> None:
+    """Raise the strict-number error of the first bad value of ``bone`` in the frame at ``frame_line``."""
+    for ln in range(frame_line + 1, len(lines) + 1):
+        toks = lines[ln - 1].split("#", 1)[0].split()
+        if toks and toks[0] == bone:
+            for t in toks[1:]:
+                _number(src, ln, t, f"bone {bone}")
+    raise MocapFormatError(src, frame_line, f"bone {bone}: a value is out of range (|value| > {MAX_ABS:g})")
+
+
+def _cut_note(lines: list[str], last: int, ndof: dict[str, int]) -> str | None:
+    """A note when the file's last line (no final newline) is a bone line whose last value is shorter
+    than the same value in every one of the up to 100 earlier lines of that bone."""
+    toks = lines[last - 1].split("#", 1)[0].split()
+    if len(toks) < 2 or ndof.get(toks[0]) != len(toks) - 1:
+        return None
+    column = []
+    span = 100 * (len(ndof) + 1)
+    for ln in range(last - 1, max(last - 1 - span, 0), -1):
+        t = lines[ln - 1].split()
+        if t and t[0] == toks[0] and len(t) == len(toks):
+            column.append(t[-1])
+            if len(column) == 100:
+                break
+    if looks_cut(toks[-1], column):
+        return (f"line {last}, bone {toks[0]}: the last value {_short(toks[-1])} is shorter than the same value in "
+                f"the {len(column)} lines of that bone before it and the file has no final newline: it may be cut short")
+    return None
 
 
 def _conjugated(c_quat, m: Rotation) -> np.ndarray:
@@ -990,7 +1080,8 @@ def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton,
         raise InvalidParameterError(f"max_residual_deg must be >= 0, got {max_residual_deg!r}")
     sk = _asf_of(asf_skeleton)
     asf = sk.meta["asf"]
-    names = motion.skeleton.names
+    msk = motion.skeleton
+    names = set(msk.names)
     missing = [n for n in (_ROOT_NAME, *asf["bones"]) if n not in names]
     if missing:
         raise InvalidParameterError(f"the motion has no joint(s) {missing[:5]} of the ASF skeleton")
@@ -1008,10 +1099,10 @@ def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton,
         return _continuous(ang)
 
     root_order = tuple(asf["root"]["order"])
-    rq = motion.rotations[:, names.index(_ROOT_NAME)]
+    rq = motion.rotations[:, msk.index(_ROOT_NAME)]
     rseq = "".join(a[1].lower() for a in root_order if a[0] == "R")
     rang = dof_angles(_ROOT_NAME, rseq, rq)
-    trans = motion.translations[:, names.index(_ROOT_NAME)] - np.asarray(asf["root"]["position"])
+    trans = motion.translations[:, msk.index(_ROOT_NAME)] - np.asarray(asf["root"]["position"])
     root_cols = []
     ri = 0
     for a in root_order:
@@ -1023,7 +1114,7 @@ def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton,
     cols[_ROOT_NAME] = np.stack(root_cols, axis=1) if root_cols else np.zeros((N, 0))
     for n, b in asf["bones"].items():
         seq = "".join(d[1] for d in b["dofs"])
-        ang = dof_angles(n, seq, motion.rotations[:, names.index(n)])
+        ang = dof_angles(n, seq, motion.rotations[:, msk.index(n)])
         if b["dofs"]:
             cols[n] = ang
     per_joint = {n: float(r.max()) if r.size else 0.0 for n, r in residuals.items()}

@@ -9,9 +9,13 @@ problem, found by the pre-check or raised by ezc3d, becomes a
 
 What is read
 ------------
-* ``positions``: ezc3d's points (``POINT:SCALE`` applied), ``(N, M, 3)``; a point whose residual is
-  negative (the C3D "invalid" flag; ezc3d already returns NaN for it) or that has a non-finite
-  coordinate is ``NaN``. A point at exactly ``(0, 0, 0)`` with a valid residual is kept as is.
+* ``positions``: ezc3d's points (``POINT:SCALE`` applied), ``(N, M, 3)``. Gaps: a point whose
+  residual is negative (the C3D "invalid" flag; ezc3d already returns NaN for it) is ``NaN``; so is a
+  point of a float C3D holding a NaN coordinate without that flag (some exporters write NaN for a
+  missing marker), counted in ``meta["warnings"]``. An infinite coordinate, or one (or an analog
+  value) beyond ``MAX_ABS`` (1e12) — what a damaged scale or float word gives — is an error naming
+  the 1-based frame, the marker (or analog channel) and the axis. A point at exactly ``(0, 0, 0)``
+  with a valid residual is kept as is.
 * ``labels``: ``POINT:LABELS`` then ``LABELS2``, ``LABELS3``..., made unique by
   :func:`mocapkit.markers.make_unique_labels` (fixes recorded in ``meta["label_fixes"]``).
 * ``rate``: ``POINT:RATE`` (the header rate when ``POINT:RATE`` is 0, as ezc3d does).
@@ -31,6 +35,11 @@ Refused (``MocapFormatError``): not a C3D file, truncated file or section, a dam
 (bad record links, impossible types or sizes, negative lengths), header and parameters disagreeing on
 sizes (points, analog channels, samples per frame, frames, data start, storage format), MIPS
 (big-endian) files (ezc3d does not read them), no frames, a zero or non-finite rate.
+
+Sizes: every count of the header and parameters is checked against the file's size by the
+pre-check before ezc3d allocates anything (a data section shorter than declared is read as the
+complete frames it holds). A pipe or device is read in bounded chunks (its first 512 bytes must
+look like a C3D header, so ``/dev/zero`` fails at once) and handed to ezc3d as a temporary file.
 """
 
 from __future__ import annotations
@@ -43,7 +52,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.atomic import read_file_bytes
+from mocapkit.io.numbers import MAX_ABS
+from mocapkit.io.textinput import is_regular, read_input
 from mocapkit.markers import Markers, make_unique_labels
 
 __all__ = ["read_c3d", "write_c3d", "check_c3d_structure", "C3DLayout"]
@@ -497,9 +507,10 @@ def _check(data: bytes) -> C3DLayout:
             raise _Bad(f"the ROTATION data section is truncated ({ru} rotations x {rr} per frame "
                        f"from block {rs} do not fit in the file)")
     # bytes after the declared frames (a truncated file's leftover partial frame is not one of them;
-    # less than a frame or a padded last block is the usual end of a data section)
+    # less than a frame or a padded last block is the usual end of a data section; ezc3d pads a data
+    # section that ends on a block boundary with one more whole block, so up to 512 bytes are padding)
     extra = (size - dpos - data_bytes) // frame_bytes if frame_bytes else 0
-    if not truncated and not rbytes and extra >= 1 and size - dpos - data_bytes >= _BLOCK:
+    if not truncated and not rbytes and extra >= 1 and size - dpos - data_bytes > _BLOCK:
         warnings.append(f"the file has {size - dpos - data_bytes} bytes after the {n_frames} frames the "
                         f"parameters declare (room for {extra} more frames); as ezc3d, only the declared "
                         "frames are read")
@@ -553,6 +564,17 @@ def _clean_text(s: str) -> str:
         return s.encode("utf-8", "surrogateescape").decode("latin-1")
 
 
+def _check_values(positions: np.ndarray, src: str, first_frame: int, names: list[str], axes: str) -> None:
+    """Refuse ``inf`` and ``|value| > MAX_ABS`` in ``(N, M, 3)`` positions naming frame, marker and axis
+    (NaN is a gap, decided by the caller)."""
+    bad = ~(np.abs(positions) <= MAX_ABS) & ~np.isnan(positions)
+    if bad.any():
+        f, mk, a = (int(v) for v in np.argwhere(bad)[0])
+        v = float(positions[f, mk, a])
+        what = "not finite" if not math.isfinite(v) else f"out of range (|value| > {MAX_ABS:g})"
+        raise MocapFormatError(src, None, f"frame {first_frame + f}, {names[mk]} {axes[a]}: {v!r} is {what}")
+
+
 def _first_frame(layout: C3DLayout) -> tuple[int, str]:
     start = layout.values("TRIAL", "ACTUAL_START_FIELD")
     p = layout.groups.get("TRIAL", {}).get("ACTUAL_START_FIELD")
@@ -568,7 +590,13 @@ def read_c3d(path: str | Path) -> Markers:
     """Read the markers (and analog channels) of a C3D file; see the module docstring."""
     p = Path(path)
     src = str(p)
-    data = read_file_bytes(p, "C3D file")
+
+    def head(first: bytes) -> None:
+        if len(first) >= 2 and (first[0] == 0 or first[1] != 0x50):
+            raise MocapFormatError(src, None, "not a C3D file (the first two bytes must be the parameter "
+                                   "block number and 0x50)")
+
+    data = read_input(p, "C3D file", text=False, check_head=head)
     try:
         layout = _check(data)
     except _Bad as exc:
@@ -580,8 +608,21 @@ def read_c3d(path: str | Path) -> Markers:
         import ezc3d
     except ImportError:  # pragma: no cover - ezc3d is a dependency of the C3D reader
         raise MocapFormatError(src, None, "reading C3D files needs the 'ezc3d' package") from None
+    if is_regular(p):
+        return _read_checked(ezc3d, src, src, layout)
+    import tempfile  # a pipe or device was read once: ezc3d gets the same bytes from a file
+
+    with tempfile.TemporaryDirectory(prefix="mocapkit-c3d-") as tmp:
+        name = str(Path(tmp) / "in.c3d")
+        Path(name).write_bytes(data)
+        del data
+        return _read_checked(ezc3d, name, src, layout)
+
+
+def _read_checked(ezc3d, name: str, src: str, layout: C3DLayout) -> Markers:
+    """Read with ezc3d the file ``name`` (``src`` in messages) whose structure passed the pre-check."""
     try:
-        c = ezc3d.c3d(src)
+        c = ezc3d.c3d(name)
         params = c["parameters"]
         pts = np.asarray(c["data"]["points"], dtype=np.float64)
         res = np.asarray(c["data"]["meta_points"]["residuals"], dtype=np.float64)
@@ -601,14 +642,19 @@ def read_c3d(path: str | Path) -> Markers:
         raise MocapFormatError(src, None, f"ezc3d returned points of shape {pts.shape}, expected "
                                f"(4, {m}, {n}) from the header")
     positions = np.ascontiguousarray(np.transpose(pts[:3], (2, 1, 0)))
-    if res.shape == (1, m, n):
-        invalid = (res[0] < 0).T
-        positions[invalid] = np.nan
-    positions[~np.isfinite(positions).all(axis=2)] = np.nan
-
+    del pts
+    invalid = (res[0] < 0).T if res.shape == (1, m, n) else np.zeros((n, m), dtype=bool)
+    positions[invalid] = np.nan
     labels, fixes = make_unique_labels(point_labels, m)
-    rate = float(layout.point_rate)
     first_frame, first_from = _first_frame(layout)
+    _check_values(positions, src, first_frame, [f"marker {lab}" for lab in labels], "XYZ")
+    unflagged_nan = int(np.count_nonzero(np.isnan(positions).any(axis=2) & ~invalid))
+    if unflagged_nan:
+        layout.warnings.append(f"{unflagged_nan} samples hold NaN coordinates without the C3D missing flag "
+                               "(residual -1); they are read as gaps")
+    positions[np.isnan(positions).any(axis=2)] = np.nan
+
+    rate = float(layout.point_rate)
     times = (first_frame - 1 + np.arange(n, dtype=np.float64)) / rate
 
     units = units_v[0].strip() if units_v and units_v[0].strip() else ""
@@ -644,6 +690,16 @@ def read_c3d(path: str | Path) -> Markers:
                                    f"expected {expected} from the header")
         a_labels, a_fixes = make_unique_labels(analog_labels, k, prefix="analog")
         meta["analog_label_fixes"] = a_fixes
+        ratio = max(layout.analog_per_frame, 1)
+        a_vals = ana[0].T  # (samples, channels)
+        bad = ~(np.abs(a_vals) <= MAX_ABS)
+        if bad.any():
+            smp, ch = (int(v) for v in np.argwhere(bad)[0])
+            raise MocapFormatError(src, None, f"frame {first_frame + smp // ratio} (analog sample {smp + 1}), "
+                                   f"analog channel {a_labels[ch]}: {float(a_vals[smp, ch])!r} is "
+                                   + ("not finite" if not np.isfinite(a_vals[smp, ch]) else
+                                      f"out of range (|value| > {MAX_ABS:g})")
+                                   + " (analog data has no missing-value convention)")
         a_units = tuple((analog_units[i].strip() if i < len(analog_units) else "") for i in range(k))
         analog = {
             "labels": a_labels,
@@ -706,8 +762,19 @@ def write_c3d(markers: Markers, path: str | Path, *, analog: bool = True) -> Non
     read back as NaN). Times must lie on the frame grid (within ``TIME_GRID_TOLERANCE`` frames).
     With ``analog=True`` the analog channels (when present) are written too; they need a rate that
     is an integer multiple of the frame rate and ``rate_ratio * N`` samples, else
-    ``InvalidParameterError`` (pass ``analog=False`` to leave them out).
+    ``InvalidParameterError`` naming ``path`` (pass ``analog=False`` to leave them out).
     """
+    from mocapkit.errors import InvalidParameterError
+
+    try:
+        _build_and_write(markers, path, analog)
+    except InvalidParameterError as exc:  # name the output the user asked for
+        raise InvalidParameterError(f"{path}: cannot be written as C3D: {exc}") from None
+
+
+def _build_and_write(markers: Markers, path: str | Path, analog: bool) -> None:
+    """The body of :func:`write_c3d`."""
+    import errno
     import tempfile
 
     import ezc3d
@@ -762,8 +829,13 @@ def write_c3d(markers: Markers, path: str | Path, *, analog: bool = True) -> Non
             c.add_parameter("TRIAL", name, [0, 0])
             c["parameters"]["TRIAL"][name]["type"] = 2  # integer (a Python list is stored as float)
             c["parameters"]["TRIAL"][name]["value"] = _words(value)
+    # ezc3d writes only to a path: a private folder of the system's temporary space (removed on any
+    # failure), never the target's folder; the bytes then go through the safe writer
     with tempfile.TemporaryDirectory(prefix="mocapkit-c3d-") as tmp:
         name = str(Path(tmp) / "out.c3d")
-        c.write(name)
-        data = Path(name).read_bytes()
+        try:
+            c.write(name)
+            data = Path(name).read_bytes()
+        except Exception as exc:  # noqa: BLE001 - ezc3d raises RuntimeError, OSError...
+            raise OSError(errno.EIO, f"the C3D data could not be built ({exc})", str(path)) from None
     atomic_write_bytes(path, data)

@@ -11,25 +11,32 @@ the same result. Lengths are converted to metres (glTF's unit) with ``unit_m`` m
 The animation's ``extras["mocapkit"]`` keeps what glTF has no place for (frame times, the BVH channels of
 every joint, the number of joint nodes, the length unit), so :func:`read_gltf` decodes a file written here
 back to the full-rate motion exactly as :meth:`SkeletalCompressed.decode` does (up to float32). Other glTF
-files are read too: every node is a joint, the frame rate is given by the caller.
+files are read too: every node is a joint, the frame rate is given by the caller. Reading parses the
+GLB chunks and the JSON itself (standard ``json``, every field type- and range-checked) rather than
+through pygltflib, whose object mapping costs about a millisecond per node, accessor or sampler; any
+malformed or hostile content is a :class:`~mocapkit.errors.MocapFormatError` naming the file.
 """
 
 from __future__ import annotations
 
 import base64
+import json
 import math
+import struct
 from pathlib import Path
 
 import numpy as np
 import pygltflib as g
 
-from mocapkit.errors import InvalidParameterError, MocapFormatError
-from mocapkit.io.atomic import atomic_write_bytes, atomic_write_text, read_file_bytes
+from mocapkit.errors import InvalidParameterError, MocapError, MocapFormatError
+from mocapkit.io.atomic import atomic_write_bytes, atomic_write_text
+from mocapkit.io.numbers import MAX_ABS
 from mocapkit.quat import hemisphere_continuous, normalize, slerp
-from mocapkit.skeleton import Motion, Skeleton
+from mocapkit.skeleton import MAX_JOINT_FRAMES, POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
 EXTRAS_KEY = "mocapkit"
-MAX_VALUES = 20_000_000  # joint-frames decoded at most (~1.1 GB as float64 rotations + translations)
+MAX_VALUES = MAX_JOINT_FRAMES  # joint-frames decoded at most (~1.1 GB as float64 rotations + translations)
+_VALID_CHANNELS = POSITION_CHANNELS + ROTATION_CHANNELS
 
 
 class _Blob:
@@ -148,61 +155,170 @@ def write_gltf(path: str | Path, comp, unit_m: float = 0.01, name: str = "mocapk
 # --------------------------------------------------------------------------------------------------
 # reading
 # --------------------------------------------------------------------------------------------------
+#
+# The file is parsed here with the standard json module into plain dicts (not pygltflib's
+# dataclasses: ~1 ms an object, minutes for a 10,000-joint clip) and every field is checked for its
+# type and range before use: indices inside their arrays, buffer views and accessors inside the
+# buffer, strides within the spec's 4..252, numbers finite and at most MAX_ABS, counts bounded by the
+# buffer (so a hostile file cannot make the reader allocate or loop more than its own size).
 
-_N_COMP = {g.SCALAR: 1, g.VEC3: 3, g.VEC4: 4}
+_N_COMP = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}
+_FLOAT = 5126
+_GLB_JSON, _GLB_BIN = 0x4E4F534A, 0x004E4942
+MAX_FILE_BYTES = 1 << 31  # a glTF file larger than 2 GiB is not a clip this reader decodes
+MIN_UNIT_M, MAX_UNIT_M = 1e-9, 1e9
+MIN_FRAME_TIME, MAX_FRAME_TIME = 1e-6, 1e6
 
 
-def _load(path: Path) -> tuple[g.GLTF2, bytes]:
+class _Bad(Exception):
+    """A structural problem; becomes MocapFormatError(src, None, message) at the top."""
+
+
+def _reject_constant(name: str):
+    raise ValueError(f"{name} is not a JSON number")
+
+
+def _finite_float(tok: str) -> float:
+    v = float(tok)
+    if not math.isfinite(v):
+        raise ValueError(f"{tok} overflows a double")
+    return v
+
+
+def _json(raw: bytes) -> dict:
+    try:
+        text = raw.decode("utf-8-sig")
+        doc = json.loads(text, parse_constant=_reject_constant, parse_float=_finite_float)
+    except UnicodeDecodeError as exc:
+        raise _Bad(f"the JSON is not UTF-8 (byte {exc.start})") from None
+    except RecursionError:
+        raise _Bad("the JSON is nested too deeply") from None
+    except ValueError as exc:
+        raise _Bad(f"not valid glTF JSON ({exc})") from None
+    if not isinstance(doc, dict):
+        raise _Bad("the glTF JSON is not an object")
+    return doc
+
+
+def _glb(data: bytes) -> tuple[dict, bytes]:
+    if len(data) < 20:
+        raise _Bad("a GLB file needs a 12-byte header and a JSON chunk")
+    _, version, length = struct.unpack_from("<4sII", data, 0)
+    if version != 2:
+        raise _Bad(f"GLB version {version} (only 2 is read)")
+    if length > len(data):
+        raise _Bad(f"the GLB header says {length} bytes but the file has {len(data)} (cut short?)")
+    chunks = []
+    off = 12
+    while off + 8 <= length:
+        clen, ctype = struct.unpack_from("<II", data, off)
+        if off + 8 + clen > length:
+            raise _Bad(f"GLB chunk {len(chunks)} of {clen} bytes reaches past the end of the file")
+        chunks.append((ctype, data[off + 8: off + 8 + clen]))
+        off += 8 + clen
+        if len(chunks) == 2:
+            break
+    if not chunks or chunks[0][0] != _GLB_JSON:
+        raise _Bad("the first GLB chunk is not JSON")
+    blob = chunks[1][1] if len(chunks) > 1 and chunks[1][0] == _GLB_BIN else b""
+    return _json(chunks[0][1]), blob
+
+
+def _load(path: Path) -> tuple[dict, bytes]:
+    from mocapkit.io.textinput import read_input
+
     src = str(path)
-    data = read_file_bytes(path, "glTF file")
+    data = read_input(path, "glTF file", max_stream_bytes=MAX_FILE_BYTES, text=False)
     try:
         if data[:4] == b"glTF":
-            gl = g.GLTF2.load_from_bytes(data)
-            blob = gl.binary_blob() or b""
-        else:
-            gl = g.GLTF2.gltf_from_json(data.decode("utf-8"))
-            uri = gl.buffers[0].uri if gl.buffers else None
-            if uri is None:
-                blob = b""
-            elif uri.startswith("data:"):
-                blob = base64.b64decode(uri.split(",", 1)[1])
-            else:
-                blob = read_file_bytes(path.parent / uri, "glTF buffer")
-    except MocapFormatError:
-        raise
-    except Exception as exc:  # pygltflib raises many kinds on malformed input
-        raise MocapFormatError(src, None, f"not a readable glTF file ({type(exc).__name__}: {exc})") from None
-    return gl, blob
+            return _glb(data)
+        doc = _json(data)
+        buffers = _list(doc, "buffers")
+        uri = buffers[0].get("uri") if buffers and isinstance(buffers[0], dict) else None
+        if uri is None:
+            return doc, b""
+        if not isinstance(uri, str):
+            raise _Bad("buffer 0: uri is not a string")
+        if uri.startswith("data:"):
+            try:
+                return doc, base64.b64decode(uri.split(",", 1)[1], validate=True)
+            except (IndexError, ValueError):
+                raise _Bad("buffer 0: the data URI is not base64") from None
+        return doc, read_input(path.parent / uri, "glTF buffer", max_stream_bytes=MAX_FILE_BYTES, text=False)
+    except _Bad as exc:
+        raise MocapFormatError(src, None, str(exc)) from None
 
 
-def _acc_view(acc: g.Accessor) -> int:
-    return -1 if acc.bufferView is None else int(acc.bufferView)
+def _list(d: dict, key: str) -> list:
+    v = d.get(key, [])
+    if not isinstance(v, list):
+        raise _Bad(f"{key!r} is not an array")
+    return v
 
 
-def _accessor(gl: g.GLTF2, blob: bytes, i: int, src: str) -> np.ndarray:
-    try:
-        if not (0 <= i < len(gl.accessors)) or not (0 <= _acc_view(gl.accessors[i]) < len(gl.bufferViews)):
-            raise IndexError(i)
-        acc = gl.accessors[i]
-        view = gl.bufferViews[acc.bufferView]
-        n = _N_COMP[acc.type]
-    except (IndexError, KeyError, TypeError):
-        raise MocapFormatError(src, None, f"accessor {i} is missing or not a float SCALAR/VEC3/VEC4") from None
-    if acc.componentType != g.FLOAT:
-        raise MocapFormatError(src, None, f"accessor {i}: only FLOAT components are read (got {acc.componentType})")
-    start = (view.byteOffset or 0) + (acc.byteOffset or 0)
-    stride = view.byteStride or 4 * n
-    end = start + stride * (acc.count - 1) + 4 * n
-    if acc.count < 1 or end > len(blob):
-        raise MocapFormatError(src, None, f"accessor {i} reaches past the end of the buffer")
-    raw = np.frombuffer(blob, dtype="<f4", count=(end - start) // 4, offset=start)
-    if stride == 4 * n:
-        out = raw.reshape(acc.count, n)
-    else:
-        out = np.lib.stride_tricks.as_strided(raw, shape=(acc.count, n), strides=(stride, 4))
+def _obj(v, what: str) -> dict:
+    if not isinstance(v, dict):
+        raise _Bad(f"{what} is not an object")
+    return v
+
+
+def _int(v, what: str, lo: int = 0, hi: int | None = None) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < lo or (hi is not None and v > hi):
+        rng = f">= {lo}" if hi is None else f"in {lo}..{hi}"
+        raise _Bad(f"{what} must be an integer {rng}, got {str(v)[:40]}")
+    return v
+
+
+def _num(v, what: str, lo: float = -MAX_ABS, hi: float = MAX_ABS) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not lo <= v <= hi:
+        raise _Bad(f"{what} must be a number from {lo:g} to {hi:g}, got {str(v)[:40]}")
+    return float(v)
+
+
+def _vec(v, n: int, what: str, default) -> np.ndarray:
+    if v is None:
+        return np.asarray(default, dtype=np.float64)
+    if not isinstance(v, list) or len(v) != n:
+        raise _Bad(f"{what} must be {n} numbers")
+    return np.array([_num(x, what) for x in v], dtype=np.float64)
+
+
+def _accessor(doc: dict, blob: bytes, i, what: str) -> np.ndarray:
+    """Float SCALAR/VEC3/VEC4 accessor ``i`` as ``(count, n)`` float64, every value finite and at most
+    MAX_ABS; bounds checked against the view and the buffer before anything is read."""
+    accessors, views = _list(doc, "accessors"), _list(doc, "bufferViews")
+    i = _int(i, f"{what}: accessor index", 0, len(accessors) - 1)
+    acc = _obj(accessors[i], f"accessor {i}")
+    n = _N_COMP.get(acc.get("type"))
+    if n is None or acc.get("componentType") != _FLOAT:
+        raise _Bad(f"accessor {i} is not a float SCALAR/VEC3/VEC4 (type {str(acc.get('type'))[:20]}, "
+                   f"componentType {str(acc.get('componentType'))[:20]})")
+    vi = _int(acc.get("bufferView"), f"accessor {i}: bufferView", 0, len(views) - 1)
+    view = _obj(views[vi], f"bufferView {vi}")
+    _int(view.get("buffer", 0), f"bufferView {vi}: buffer", 0, 0)
+    v_off = _int(view.get("byteOffset", 0), f"bufferView {vi}: byteOffset")
+    v_len = _int(view.get("byteLength"), f"bufferView {vi}: byteLength")
+    if v_off + v_len > len(blob):
+        raise _Bad(f"bufferView {vi} ({v_len} bytes at {v_off}) reaches past the end of the {len(blob)}-byte buffer")
+    stride = view.get("byteStride")
+    stride = 4 * n if stride is None else _int(stride, f"bufferView {vi}: byteStride", 4, 252)
+    if stride % 4 or stride < 4 * n:
+        raise _Bad(f"bufferView {vi}: byteStride {stride} does not hold {n} floats (multiple of 4, >= {4 * n})")
+    a_off = _int(acc.get("byteOffset", 0), f"accessor {i}: byteOffset")
+    count = _int(acc.get("count"), f"accessor {i}: count", 1)
+    if a_off % 4 or (v_off + a_off) % 4:
+        raise _Bad(f"accessor {i}: byteOffset {a_off} is not a multiple of 4")
+    if a_off + stride * (count - 1) + 4 * n > v_len:
+        raise _Bad(f"accessor {i}: {count} elements reach past the end of bufferView {vi} ({v_len} bytes)")
+    start = v_off + a_off
+    raw = np.frombuffer(blob, dtype="<f4", count=(stride * (count - 1) + 4 * n) // 4, offset=start)
+    out = raw.reshape(-1, n) if stride == 4 * n else np.lib.stride_tricks.as_strided(
+        raw, shape=(count, n), strides=(stride, 4), writeable=False)
     out = out.astype(np.float64)
-    if not np.all(np.isfinite(out)):
-        raise MocapFormatError(src, None, f"accessor {i} holds NaN or infinite values")
+    bad = ~(np.abs(out) <= MAX_ABS)
+    if bad.any():
+        k = int(np.flatnonzero(bad.any(axis=1))[0])
+        raise _Bad(f"accessor {i} element {k}: {out[k].tolist()} is not finite or larger than {MAX_ABS:g}")
     return out
 
 
@@ -225,112 +341,147 @@ def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
     unit, with its joints' BVH channels. For other files, every node is a joint (rotation channels ZXY,
     plus position channels where a translation is animated), lengths stay in metres and ``rate`` (Hz)
     sets the frame grid from the first to the last keyframe.
+
+    Every problem is a :class:`~mocapkit.errors.MocapFormatError` naming ``path``: malformed JSON or
+    GLB chunks, indices out of range, accessors reaching past their buffer, NaN or huge values, node
+    cycles or shared children; the work is linear in the file size (deep node chains included).
     """
     p = Path(path)
     src = str(p)
-    gl, blob = _load(p)
+    if rate is not None:
+        try:
+            r = float(rate)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(f"rate must be a number of Hz, got {rate!r}") from None
+        if not 1.0 / MAX_FRAME_TIME <= r <= 1.0 / MIN_FRAME_TIME:
+            raise InvalidParameterError(f"rate must be between {1 / MAX_FRAME_TIME:g} and {1 / MIN_FRAME_TIME:g} Hz, got {rate!r}")
+        rate = r
+    doc, blob = _load(p)
     try:
-        return _decode(gl, blob, src, rate)
-    except (MocapFormatError, InvalidParameterError):
-        raise
-    except (ValueError, IndexError, KeyError, TypeError, AttributeError, OverflowError) as exc:
-        # a structure pygltflib accepted but that is not a consistent animation (wrong lengths, types)
+        return _decode(doc, blob, src, rate)
+    except _Bad as exc:
+        raise MocapFormatError(src, None, str(exc)) from None
+    except (ValueError, IndexError, KeyError, TypeError, OverflowError) as exc:  # a check missed above
         raise MocapFormatError(src, None, f"malformed glTF content ({type(exc).__name__}: {exc})") from None
 
 
 def _unit_like(q: np.ndarray) -> bool:
     """Quaternions whose norm is 1 up to float32 storage and writer rounding (glTF requires unit ones)."""
-    with np.errstate(over="ignore", invalid="ignore"):
-        n = np.linalg.norm(q, axis=-1)
+    n = np.linalg.norm(q, axis=-1)
     return bool(np.all(np.abs(n - 1.0) < 1e-3))
 
 
-def _check_size(n_frames: int, n_joints: int, src: str) -> None:
+def _check_size(n_frames: int, n_joints: int) -> None:
     if n_frames < 1 or n_frames * n_joints > MAX_VALUES:
-        raise MocapFormatError(src, None, f"{n_frames} frames × {n_joints} joints is not a clip this reader decodes "
-                               f"(at least 1 frame, at most {MAX_VALUES:,} joint-frames)")
+        raise _Bad(f"{n_frames} frames × {n_joints} joints is not a clip this reader decodes "
+                   f"(at least 1 frame, at most {MAX_VALUES:,} joint-frames)")
 
 
-def _decode(gl: g.GLTF2, blob: bytes, src: str, rate: float | None) -> Motion:
-    if not gl.nodes:
-        raise MocapFormatError(src, None, "no nodes: not a skeletal glTF file")
-    anim = gl.animations[0] if gl.animations else None
-    extras = ((anim.extras or {}) if anim is not None else {}).get(EXTRAS_KEY) or {}
-    n_nodes = int(extras.get("n_joints", len(gl.nodes)))
-    if not (1 <= n_nodes <= len(gl.nodes)):
-        raise MocapFormatError(src, None, f"extras say {n_nodes} joints but the file has {len(gl.nodes)} nodes")
-    parents = np.full(len(gl.nodes), -1, dtype=np.int64)
-    for i, node in enumerate(gl.nodes):
-        for c in node.children or []:
-            if not (0 <= c < len(gl.nodes)) or parents[c] != -1 or c == i:
-                raise MocapFormatError(src, None, f"node {i} has an invalid or shared child {c}")
+def _channels(v, j: int) -> tuple[str, ...]:
+    if not isinstance(v, list) or len(v) > 6 or len(set(map(str, v))) != len(v) or \
+            not all(isinstance(c, str) and c in _VALID_CHANNELS for c in v):
+        raise _Bad(f"extras channels of joint {j} must be distinct BVH channel names, got {str(v)[:60]}")
+    return tuple(v)
+
+
+def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
+    nodes = _list(doc, "nodes")
+    if not nodes:
+        raise _Bad("no nodes: not a skeletal glTF file")
+    nodes = [_obj(n, f"node {i}") for i, n in enumerate(nodes)]
+    anims = _list(doc, "animations")
+    anim = _obj(anims[0], "animation 0") if anims else None
+    extras = _obj(anim.get("extras", {}) if anim is not None else {}, "animation extras")
+    extras = _obj(extras.get(EXTRAS_KEY) or {}, f"extras {EXTRAS_KEY!r}")
+    n_nodes = _int(extras.get("n_joints", len(nodes)), "extras n_joints", 1)
+    if n_nodes > len(nodes):
+        raise _Bad(f"extras say {n_nodes} joints but the file has {len(nodes)} nodes")
+    parents = np.full(len(nodes), -1, dtype=np.int64)
+    children: list[list[int]] = []
+    for i, node in enumerate(nodes):
+        kids = _list(node, "children")
+        for c in kids:
+            c = _int(c, f"node {i}: child", 0, len(nodes) - 1)
+            if parents[c] != -1 or c == i:
+                raise _Bad(f"node {i} has an invalid or shared child {c}")
             parents[c] = i
+        children.append(kids)
     # joints in topological order (parents first), end sites (extra nodes) kept as BVH end sites
     order: list[int] = []
-    roots = [i for i in range(n_nodes) if parents[i] < 0]
-    stack = list(reversed(roots))
+    stack = [i for i in range(n_nodes - 1, -1, -1) if parents[i] < 0]
     while stack:
         i = stack.pop()
         order.append(i)
-        stack.extend(reversed([c for c in (gl.nodes[i].children or []) if c < n_nodes]))
+        stack.extend(c for c in reversed(children[i]) if c < n_nodes)
     if len(order) != n_nodes:
-        raise MocapFormatError(src, None, "the node hierarchy has a cycle")
+        raise _Bad("the node hierarchy has a cycle (or a joint hangs below a non-joint node)")
     new = {old: k for k, old in enumerate(order)}
-    unit_m = float(extras.get("unit_m", 1.0))
-    if not (math.isfinite(unit_m) and unit_m > 0):
-        raise MocapFormatError(src, None, f"extras unit_m {unit_m!r} is not a positive number")
+    unit_m = _num(extras.get("unit_m", 1.0), "extras unit_m", MIN_UNIT_M, MAX_UNIT_M)
 
-    def vec(v, default):
-        a = np.asarray(v if v is not None else default, dtype=np.float64)
-        if a.shape != (len(default),):
-            raise MocapFormatError(src, None, f"a node vector has {a.size} numbers, expected {len(default)}")
-        if not np.all(np.isfinite(a)):
-            raise MocapFormatError(src, None, "a node holds NaN or infinite values")
+    def scaled(v, what):
+        a = v / unit_m
+        if not np.all(np.abs(a) <= MAX_ABS):
+            raise _Bad(f"{what}: {v.tolist()} m is larger than {MAX_ABS:g} file units")
         return a
 
-    rest_t = np.array([vec(gl.nodes[o].translation, [0, 0, 0]) / unit_m for o in order])
-    rest_q = np.array([vec(gl.nodes[o].rotation, [0, 0, 0, 1])[[3, 0, 1, 2]] for o in order])
+    rest_t = np.array([scaled(_vec(nodes[o].get("translation"), 3, f"node {o}: translation", [0, 0, 0]),
+                              f"node {o}: translation") for o in order]).reshape(-1, 3)
+    rest_q = np.array([_vec(nodes[o].get("rotation"), 4, f"node {o}: rotation", [0, 0, 0, 1])[[3, 0, 1, 2]]
+                       for o in order]).reshape(-1, 4)
     if not _unit_like(rest_q):
-        raise MocapFormatError(src, None, "a node rotation is not a unit quaternion (glTF requires one)")
+        raise _Bad("a node rotation is not a unit quaternion (glTF requires one)")
     tracks: dict[tuple[int, str], tuple[np.ndarray, np.ndarray]] = {}
-    for ch in (anim.channels if anim is not None else []):
-        node, kind = ch.target.node, ch.target.path
-        if kind not in ("rotation", "translation") or node is None or node not in new:
-            continue
-        if not (isinstance(ch.sampler, int) and 0 <= ch.sampler < len(anim.samplers)):
-            raise MocapFormatError(src, None, f"a channel names sampler {ch.sampler!r}, which does not exist")
-        smp = anim.samplers[ch.sampler]
-        if (smp.interpolation or "LINEAR") != "LINEAR":
-            raise MocapFormatError(src, None, f"sampler {ch.sampler}: only LINEAR interpolation is read, got {smp.interpolation}")
-        kt = _accessor(gl, blob, smp.input, src)[:, 0]
-        kv = _accessor(gl, blob, smp.output, src)
-        if len(kt) != len(kv) or np.any(np.diff(kt) <= 0):
-            raise MocapFormatError(src, None, f"sampler {ch.sampler}: key times must increase and match the values")
-        if kind == "rotation":
-            kv = kv[:, [3, 0, 1, 2]]
-            if not _unit_like(kv):
-                raise MocapFormatError(src, None, f"sampler {ch.sampler}: a key is not a unit quaternion")
-        else:
-            kv = kv / unit_m
-        tracks[(new[node], kind)] = (kt, kv)
+    if anim is not None:
+        samplers = _list(anim, "samplers")
+        for ci, ch in enumerate(_list(anim, "channels")):
+            ch = _obj(ch, f"animation channel {ci}")
+            target = _obj(ch.get("target"), f"animation channel {ci}: target")
+            node, kind = target.get("node"), target.get("path")
+            if kind not in ("rotation", "translation") or node is None:
+                continue
+            node = _int(node, f"animation channel {ci}: target node", 0, len(nodes) - 1)
+            if node not in new:
+                continue
+            si = _int(ch.get("sampler"), f"animation channel {ci}: sampler", 0, len(samplers) - 1)
+            smp = _obj(samplers[si], f"sampler {si}")
+            if smp.get("interpolation", "LINEAR") != "LINEAR":
+                raise _Bad(f"sampler {si}: only LINEAR interpolation is read, got {str(smp.get('interpolation'))[:20]}")
+            kt = _accessor(doc, blob, smp.get("input"), f"sampler {si} input")[:, 0]
+            kv = _accessor(doc, blob, smp.get("output"), f"sampler {si} output")
+            if len(kt) != len(kv) or np.any(np.diff(kt) <= 0):
+                raise _Bad(f"sampler {si}: key times must increase and match the values")
+            if kind == "rotation":
+                if kv.shape[1] != 4:
+                    raise _Bad(f"sampler {si}: rotation keys must be VEC4")
+                kv = kv[:, [3, 0, 1, 2]]
+                if not _unit_like(kv):
+                    raise _Bad(f"sampler {si}: a key is not a unit quaternion")
+            else:
+                if kv.shape[1] != 3:
+                    raise _Bad(f"sampler {si}: translation keys must be VEC3")
+                kv = scaled(kv, f"sampler {si} output")
+            tracks[(new[node], kind)] = (kt, kv)
     if "frame_time" in extras and "n_frames" in extras:
         if rate is not None:
             raise InvalidParameterError(f"{src} records its own frame times; do not give a rate")
-        ft, n = float(extras["frame_time"]), int(extras["n_frames"])
-        _check_size(n, n_nodes, src)
-        if not (math.isfinite(ft) and ft > 0):
-            raise MocapFormatError(src, None, f"extras frame_time {ft!r} is not a positive number")
-        times = float(extras.get("t0", 0.0)) + ft * np.arange(n)
+        ft = _num(extras["frame_time"], "extras frame_time", MIN_FRAME_TIME, MAX_FRAME_TIME)
+        n = _int(extras["n_frames"], "extras n_frames", 1)
+        _check_size(n, n_nodes)
+        t0 = _num(extras.get("t0", 0.0), "extras t0")
+        times = t0 + ft * np.arange(n)
     else:
         if rate is None:
             raise InvalidParameterError(f"{src} has no mocapkit frame times: give the frame rate (--rate HZ)")
         if not tracks:
-            raise MocapFormatError(src, None, "no rotation or translation animation to decode")
+            raise _Bad("no rotation or translation animation to decode")
         t0 = min(float(kt[0]) for kt, _ in tracks.values())
         t1 = max(float(kt[-1]) for kt, _ in tracks.values())
-        ft = 1.0 / float(rate)
-        n = int(math.floor((t1 - t0) / ft + 1e-9)) + 1
-        _check_size(n, n_nodes, src)
+        ft = 1.0 / rate
+        span = (t1 - t0) / ft
+        if not span < MAX_VALUES:
+            raise _Bad(f"keyframes over {t1 - t0:g} s at {rate:g} Hz are more frames than this reader decodes")
+        n = int(math.floor(span + 1e-9)) + 1
+        _check_size(n, n_nodes)
         times = t0 + ft * np.arange(n)
     J, N = n_nodes, len(times)
     rot = np.broadcast_to(normalize(rest_q)[None], (N, J, 4)).copy()
@@ -340,24 +491,37 @@ def _decode(gl: g.GLTF2, blob: bytes, src: str, rate: float | None) -> Motion:
             rot[:, j] = _sample(kt, kv, times, True)
         else:
             trans[:, j] = _sample(kt, kv, times, False)
-    names = [gl.nodes[o].name or f"joint{o}" for o in order]
+    names = []
+    for o in order:
+        nm = nodes[o].get("name", f"joint{o}")
+        if not isinstance(nm, str):
+            raise _Bad(f"node {o}: name is not a string")
+        names.append(nm or f"joint{o}")
     if "channels" in extras:
-        chans = [tuple(extras["channels"][o]) for o in order]
+        ch_list = extras["channels"]
+        if not isinstance(ch_list, list) or len(ch_list) < n_nodes:
+            raise _Bad(f"extras channels must list the channels of the {n_nodes} joints")
+        chans = [_channels(ch_list[o], o) for o in order]
     else:
         chans = [(("Xposition", "Yposition", "Zposition") if (j, "translation") in tracks else ())
                  + ("Zrotation", "Xrotation", "Yrotation") for j in range(J)]
     end_sites = []
     for o in order:
-        for c in gl.nodes[o].children or []:
+        for c in children[o]:
             if c >= n_nodes:
-                end_sites.append((new[o], tuple(float(v) for v in vec(gl.nodes[c].translation, [0, 0, 0]) / unit_m)))
+                off = scaled(_vec(nodes[c].get("translation"), 3, f"node {c}: translation", [0, 0, 0]),
+                             f"node {c}: translation")
+                end_sites.append((new[o], tuple(float(v) for v in off)))
     offsets = rest_t
     if "offsets" in extras:
-        offsets = np.array([vec(extras["offsets"][o], [0, 0, 0]) for o in order])
+        off_list = extras["offsets"]
+        if not isinstance(off_list, list) or len(off_list) < n_nodes:
+            raise _Bad(f"extras offsets must list the offsets of the {n_nodes} joints")
+        offsets = np.array([_vec(off_list[o], 3, f"extras offsets of joint {o}", [0, 0, 0]) for o in order])
     try:
         sk = Skeleton(tuple(names), np.array([new[parents[o]] if parents[o] >= 0 else -1 for o in order]),
                       offsets, tuple(chans), tuple(end_sites),
                       meta={"length_unit_cm": 100.0 * unit_m})
         return Motion(sk, times, rot, trans, channel_values=None, source=src, meta={"frame_time": ft})
-    except Exception as exc:
-        raise MocapFormatError(src, None, f"inconsistent skeleton: {exc}") from None
+    except MocapError as exc:
+        raise _Bad(f"inconsistent skeleton: {exc}") from None

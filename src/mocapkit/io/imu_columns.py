@@ -36,12 +36,12 @@ exports, radians in phone sensor-logger files, which have ``seconds_elapsed``), 
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from mocapkit.errors import InvalidParameterError, MocapFormatError
+from mocapkit.io.numbers import NUMBER_RE
 
 __all__ = [
     "classify_time",
@@ -253,13 +253,19 @@ def rate_in_line(line: str) -> tuple[str, str] | None:
     return m.group("key"), value
 
 
+#: Sample rates (Hz) accepted from a file's preamble: beyond, the times would be absurd.
+RATE_RANGE = (1e-6, 1e9)
+
+
 def parse_rate(value: str) -> float | None:
-    """A positive finite rate in Hz, or ``None``."""
-    try:
-        r = float(value)
-    except ValueError:
+    """A rate in Hz within :data:`RATE_RANGE` written by the strict number grammar
+    (:mod:`mocapkit.io.numbers`: no ``1_00``, ``nan``, ``inf``), or ``None``."""
+    v = value.strip()
+    if not NUMBER_RE.fullmatch(v):
         return None
-    return r if math.isfinite(r) and r > 0 else None
+    r = float(v)
+    lo, hi = RATE_RANGE
+    return r if lo <= r <= hi else None
 
 
 # ------------------------------------------------------------------------------------------------

@@ -86,7 +86,7 @@ def _file_rate(lines: Sequence[str], preamble: Sequence[int], src: str) -> tuple
         r = parse_rate(value)
         if r is None:
             raise MocapFormatError(src, i + 1, f"cannot read the sample rate {value!r} ({key}): "
-                                   "expected a positive number of Hz")
+                                   "expected a number of Hz from 1e-06 to 1e+09")
         if rate is not None and r != rate:
             raise MocapFormatError(src, i + 1, f"sample rate {r:g} Hz contradicts {rate:g} Hz on line {rate_line}")
         rate, rate_line = r, i + 1

@@ -1,10 +1,29 @@
-"""The data rows of an IMU export, parsed one line at a time into times and orientation values.
+"""The data rows of an IMU export, parsed into times and orientation values, a block of lines at a time.
 
-Every problem raises :class:`~mocapkit.errors.MocapFormatError` with the 1-based line: wrong column
-count (trailing delimiters and empty extra cells are ignored), text, NaN or infinity in a used
-column, a zero quaternion, a duplicate or decreasing time. Counters and device clocks that wrap
-(uint16 ``PacketCounter``, uint32 ``SampleTimeFine``) are unwrapped when the next row continues from
-the wrapped value (serial-number arithmetic: a drop followed by a step of at most half the range).
+Every problem raises :class:`~mocapkit.errors.MocapFormatError` naming the file, the 1-based line
+and the column: a wrong column count (trailing delimiters and empty extra cells are ignored), a
+cell that is not a number by the strict grammar of :mod:`mocapkit.io.numbers` (``0_5``, ``1..2``,
+text), NaN or infinity, a value beyond :data:`~mocapkit.io.numbers.MAX_ABS` in an orientation
+column (quaternion component, matrix entry, angle), a zero quaternion, an empty line inside the
+data, a duplicate or decreasing time, or a time step below :data:`MIN_STEP` (a rate above 1 GHz,
+which would make the rate infinite or absurd). Time columns may hold raw epoch counters (ns since
+1970, about 1.7e18): their limit before the unit scaling is ``MAX_ABS`` seconds in their unit
+(:data:`TIME_LIMIT`), and a counter is an integer below 2**53 (:data:`COUNTER_LIMIT`).
+
+Missing values: only OptiTrack Motive writes them, as empty cells when a rigid body is lost; that
+frame is dropped for that body and counted in ``meta["warnings"]``. No other supported export has a
+missing-value convention, so an empty, ``nan`` or ``inf`` cell is an error there.
+
+A file whose last line has no line end may have been cut short: a different number of fields on
+that line is an error (the message says so), and so is a last number with fewer decimals than the
+same column on every one of the 20 rows before it (a fixed-decimal export cut in the middle of
+``-0.124044`` leaves ``-0``; see :func:`mocapkit.io.textinput.cut_short_cell`). Columns written
+with a varying number of decimals cannot tell and are not judged. In a column the reader does not
+use the same finding is only a warning (the data read are complete).
+
+Counters and device clocks that wrap (uint16 ``PacketCounter``, uint32 ``SampleTimeFine``) are
+unwrapped when the next row continues from the wrapped value (serial-number arithmetic: a drop
+followed by a step of at most half the range).
 
 Counters become times with the sample rate ``r`` and the counter step ``s`` (the most frequent step
 between rows; in a stream, the first step): ``t = (counter − first) / (r · s)``. A step of 1 is the
@@ -14,21 +33,34 @@ quaternion rows. Any step other than 1 is recorded in ``meta["warnings"]``.
 A time column whose unit was guessed (a unit-less ``time``, read as seconds unless its magnitude makes
 it an epoch) is checked for plausibility: a median sample interval giving a rate outside
 :data:`PLAUSIBLE_RATE` is recorded in ``meta["warnings"]`` (the data are kept as read).
+
+Speed and memory: a block of lines (:mod:`mocapkit.io.imu_lines`) whose used cells hold only digits,
+signs, points and exponents, with the right number of delimiters on every line, is converted in one
+``numpy.loadtxt`` call and checked with array operations; the values go straight into growing float64
+arrays (one for the times, one ``(N, 4)`` per sensor), so the peak memory stays near the size of the
+numbers. Any other block (text columns, quotes, lost OptiTrack bodies, an error) is parsed line by
+line with the same rules, which also names the first bad line. Both paths give the same numbers
+(``float`` of the text).
 """
 
 from __future__ import annotations
 
+import io
 import math
 from collections import Counter
+from collections.abc import Sequence
 
 import numpy as np
 
 from mocapkit.errors import MocapFormatError
 from mocapkit.io.imu_columns import TIME_UNITS
 from mocapkit.io.imu_layout import Layout
-from mocapkit.io.imu_orientation import quaternions_from_euler, quaternions_from_matrices
+from mocapkit.io.imu_lines import check_line
+from mocapkit.io.imu_orientation import euler_note, matrices_to_quaternions, matrix_note, quaternions_from_euler
+from mocapkit.io.numbers import MAX_ABS, NUMBER_RE, parse_number
+from mocapkit.io.textinput import cut_short_cell
 
-__all__ = ["PLAUSIBLE_RATE", "RowReader"]
+__all__ = ["COUNTER_LIMIT", "MAX_BLANK_LINES", "MIN_STEP", "PLAUSIBLE_RATE", "TIME_LIMIT", "RowReader"]
 
 #: Sample rates (Hz) of orientation data from body-worn IMUs and optical systems. Their outputs run
 #: at about 10 Hz to 2 kHz (high-speed optical cameras up to ~10 kHz); human movement needs a few
@@ -36,22 +68,84 @@ __all__ = ["PLAUSIBLE_RATE", "RowReader"]
 #: 1 kHz -> 1 Hz), microseconds by 1e6: all below 2 Hz. Used only when the unit was not stated.
 PLAUSIBLE_RATE = (2.0, 10_000.0)
 
+#: Smallest time step accepted between rows (s): 1 ns, a rate of 1 GHz. A smaller step (e.g.
+#: ``1e-320`` s) would give an infinite or absurd rate; no motion sensor samples that fast.
+MIN_STEP = 1e-9
+
+#: Largest raw value of a clock column in its own unit (``MAX_ABS`` seconds: an epoch in ns is
+#: about 1.7e18, far below 1e21).
+TIME_LIMIT = {u: MAX_ABS * d for u, d in TIME_UNITS.items()}
+
+#: Largest counter value (integers stay exact in float64 below 2**53).
+COUNTER_LIMIT = float(2**53)
+
+#: Empty lines accepted in a row at the end of a file (an endless input of line ends is refused).
+MAX_BLANK_LINES = 100_000
+
+#: Blocks shorter than this are parsed line by line (cheaper than setting up a bulk conversion).
+BULK_MIN_LINES = 32
+
+#: Rows before the last line of a file without a final line end that it is compared with.
+CUT_CONTEXT = 20
+
 _SEP_NAMES = {"\t": "tab", ",": "comma", ";": "semicolon", None: "whitespace"}
+_NAN_WORDS = {"nan", "+nan", "-nan"}
+_INF_WORDS = {"inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
+
+#: Characters of a block that the bulk path converts (numbers, padding, line ends; plus the
+#: delimiter); anything else (letters, quotes, ``_``) sends the block to the line-by-line path.
+_NUMERIC_BYTES = b"0123456789.+-eE \t\n"
+
+
+_fullmatch = NUMBER_RE.fullmatch
 
 
 def _short(text: str, limit: int = 80) -> str:
     return repr(text if len(text) <= limit else text[:limit] + "...")
 
 
+class _Grow:
+    """A float64 array of ``(n, *shape)`` rows grown in place (``ndarray.resize``: large blocks are
+    remapped, not copied), trimmed to ``n`` rows at the end."""
+
+    def __init__(self, width: int | None, capacity: int = 4096):
+        self.width = width
+        self.n = 0
+        self.a = np.empty((capacity,) if width is None else (capacity, width), dtype=np.float64)
+
+    def extend(self, rows: np.ndarray) -> None:
+        k = len(rows)
+        need = self.n + k
+        if need > len(self.a):
+            cap = max(need, int(len(self.a) * 1.5) + 1024)
+            try:
+                self.a.resize((cap,) + self.a.shape[1:], refcheck=False)
+            except ValueError:  # pragma: no cover - the array owns its data; kept as a safety net
+                b = np.empty((cap,) + self.a.shape[1:], dtype=np.float64)
+                b[: self.n] = self.a[: self.n]
+                self.a = b
+        self.a[self.n: need] = rows
+        self.n = need
+
+    def array(self) -> np.ndarray:
+        try:
+            self.a.resize((self.n,) + self.a.shape[1:], refcheck=False)
+            out = self.a
+        except ValueError:  # pragma: no cover
+            out = self.a[: self.n].copy()
+        self.a = np.empty((0,) + self.a.shape[1:])
+        return out
+
+
 class RowReader:
-    """Feed data lines with :meth:`feed`; :meth:`finish` returns times and per-sensor values.
+    """Parse the data rows of one layout: :meth:`feed_block` (files) or :meth:`feed` (one line, a
+    stream); :meth:`finish` returns times and per-sensor values.
 
     With ``online=True`` (a stream) :meth:`feed` returns the row's time in seconds and its
-    quaternions at once, and keeps only the first and the previous row's time: memory stays
-    constant however long the stream.
+    quaternions at once and nothing is stored: memory stays constant however long the stream.
     """
 
-    def __init__(self, layout: Layout, src: str, online: bool = False):
+    def __init__(self, layout: Layout, src: str, online: bool = False, size_hint: int | None = None):
         self.lay = layout
         self.src = src
         self.online = online
@@ -60,24 +154,61 @@ class RowReader:
         self.unit = layout.time.unit
         self.tname = layout.time.name
         self.wrap = layout.time.wrap
-        self.times: list[float] = []          # seconds (clock units); not kept online
-        self.counts: list[int] = []           # unwrapped integers (counters, wrapping clocks); not kept online
-        self.line_nos: list[int] = []         # not kept online
+        self.counting = self.tcol is not None and (self.unit == "counter" or self.wrap is not None)
+        self.raw_limit = COUNTER_LIMIT if self.counting else TIME_LIMIT.get(self.unit or "s", MAX_ABS)
         self._n = 0                           # rows fed
+        self._first_ln: int | None = None     # line of row 0 (every later line is a row: rows = lines)
         self._prev_ln = 0                     # line of the previous row
         self._prev_t: float | None = None     # time of the previous row (s)
+        self._prev_text = ""                  # time text of the previous row (for messages)
         self._prev_u: int | None = None       # unwrapped count of the previous row
         self._first_u = 0                     # unwrapped count of the first row
-        self.rows: list[list[int]] = [[] for _ in layout.sensors]
-        self.values: list[list[tuple[float, ...]]] = [[] for _ in layout.sensors]
-        self.dropped = [0] * len(layout.sensors)
-        self._prev_text = ""
         self._prev_raw = 0
         self._offset = 0
         self._pending: tuple[int, int, int] | None = None
         self._step: int | None = None
+        self._last_online = -math.inf
+        self._blank: int | None = None        # first empty line of the current run
+        self._blank_run = 0
+        self._final_ln: int | None = None     # the last line when the input ends without a line end
+        self._tail: list[str] = []            # the last rows' text (for the cut-short check)
+        self.dropped = [0] * len(layout.sensors)
+        self.warnings: list[str] = []
+        # used columns, in the order of the bulk array: time (if any), then each sensor's columns
+        self._used: list[int] = ([self.tcol] if self.tcol is not None else []) + [c for o in layout.sensors
+                                                                                    for c in o.cols]
+        d = layout.delim
+        self._fast = d is None or (len(d) == 1 and d not in '0123456789.+-eE\n\r"')
+        self._alphabet = _NUMERIC_BYTES + (d.encode() if self._fast and d is not None else b"")
+        if not online:
+            cap = 4096 if size_hint is None else max(4096, min(size_hint // 16 + 1024, 1 << 26))
+            self._times = _Grow(None, cap) if self.tcol is not None else None
+            self._vals = [_Grow(4, cap) for _ in layout.sensors]
+            self._drops: list[list[np.ndarray]] = [[] for _ in layout.sensors]
+            self._dev = [0.0 for _ in layout.sensors]          # largest |R Rᵀ − I| of matrix sensors
 
-    # -- fields -----------------------------------------------------------------------------------
+    # ---------------------------------------------------------------------------------------------
+    # one cell
+    # ---------------------------------------------------------------------------------------------
+    def _number(self, text: str, ln: int, name: str, limit: float) -> float:
+        """A cell by the strict grammar (:mod:`mocapkit.io.numbers`), finite and within ``limit``."""
+        if _fullmatch(text):
+            v = float(text)
+            if abs(v) <= limit:
+                return v
+            if math.isinf(v):
+                raise MocapFormatError(self.src, ln, f"column {name} is infinite ({_short(text)})")
+            return parse_number(text, self.src, ln, f"column {name}", limit=limit)  # raises: out of range
+        low = text.lower()
+        if low in _NAN_WORDS:
+            raise MocapFormatError(self.src, ln, f"column {name} is NaN")
+        if low in _INF_WORDS:
+            raise MocapFormatError(self.src, ln, f"column {name} is infinite ({_short(text)})")
+        return parse_number(text, self.src, ln, f"column {name}", limit=limit)  # raises: not a number
+
+    # ---------------------------------------------------------------------------------------------
+    # one line
+    # ---------------------------------------------------------------------------------------------
     def _fields(self, line: str, ln: int) -> list[str]:
         d = self.lay.delim
         if d is None:
@@ -91,19 +222,14 @@ class RowReader:
             if d is not None:
                 while shown > self.ncols and not fields[shown - 1].strip():
                     shown -= 1
+            cut = (" (the last line, which has no line end: the file looks cut short)"
+                   if ln == self._final_ln else "")
             raise MocapFormatError(
                 self.src, ln, f"expected {self.ncols} {_SEP_NAMES.get(d, repr(d))}-separated columns like the "
                 + (f"header on line {self.lay.header_line}" if self.lay.header_index >= 0 else "first row")
-                + f", got {shown}",
+                + f", got {shown}{cut}",
             )
         return fields
-
-    # -- time -------------------------------------------------------------------------------------
-    def _int(self, text: str, ln: int) -> int:
-        try:
-            return int(text)
-        except ValueError:
-            raise MocapFormatError(self.src, ln, f"column {self.tname}: {_short(text)} is not an integer") from None
 
     def _count(self, c: int, ln: int) -> int:
         if c < 0:
@@ -138,141 +264,366 @@ class RowReader:
                 )
         return u
 
-    def _clock(self, text: str, ln: int) -> float:
-        unit = self.unit
-        try:
-            if unit == "s":
-                t = float(text)
-            else:
-                try:
-                    raw: float | int = int(text)
-                except ValueError:
-                    raw = float(text)
-                t = raw / TIME_UNITS[unit]  # type: ignore[index]
-        except ValueError:
-            raise MocapFormatError(self.src, ln, f"column {self.tname}: {_short(text)} is not a number") from None
-        except OverflowError:
-            raise MocapFormatError(self.src, ln, f"column {self.tname}: {_short(text)} is out of range") from None
-        if math.isnan(t):
-            raise MocapFormatError(self.src, ln, f"column {self.tname} is NaN")
-        if math.isinf(t):
-            raise MocapFormatError(self.src, ln, f"column {self.tname} is infinite ({_short(text)})")
-        if self._prev_t is not None:
-            prev = self._prev_t
-            if t == prev:
-                raise MocapFormatError(
-                    self.src, ln, f"duplicate timestamp: line {ln} has {self.tname} {_short(text)} ({t!r} s), "
-                    f"the same time as line {self._prev_ln} ({_short(self._prev_text)})",
-                )
-            if t < prev:
-                raise MocapFormatError(
-                    self.src, ln, f"timestamps must increase: line {ln} has {self.tname} {_short(text)} ({t!r} s), "
-                    f"earlier than line {self._prev_ln} with {_short(self._prev_text)} ({prev!r} s)",
-                )
-        self._prev_text = text
-        return t
-
-    def _time(self, fields: list[str], ln: int) -> None:
-        if self.tcol is None:
+    def _check_step(self, t: float, ln: int, text: str) -> None:
+        prev = self._prev_t
+        if prev is None:
             return
+        if t == prev:
+            raise MocapFormatError(
+                self.src, ln, f"duplicate timestamp: line {ln} has {self.tname} {_short(text)} ({t!r} s), "
+                f"the same time as line {self._prev_ln} ({_short(self._prev_text)})",
+            )
+        if t < prev:
+            raise MocapFormatError(
+                self.src, ln, f"timestamps must increase: line {ln} has {self.tname} {_short(text)} ({t!r} s), "
+                f"earlier than line {self._prev_ln} with {_short(self._prev_text)} ({prev!r} s)",
+            )
+        if t - prev < MIN_STEP:
+            raise MocapFormatError(
+                self.src, ln, f"column {self.tname}: the step from line {self._prev_ln} ({_short(self._prev_text)}) "
+                f"to {_short(text)} is {t - prev!r} s, below {MIN_STEP:g} s (a rate above {1 / MIN_STEP:g} Hz): "
+                "not a sample interval",
+            )
+
+    def _time(self, fields: list[str], ln: int) -> float | None:
+        """The row's time in seconds (clocks) or unwrapped count (counters); updates the state."""
+        if self.tcol is None:
+            return None
         text = fields[self.tcol].strip().strip('"')
-        t: float | None = None
-        if self.unit == "counter" or self.wrap is not None:
-            c = self._count(self._int(text, ln), ln)
+        if self.counting:
+            v = self._number(text, ln, self.tname, COUNTER_LIMIT)
+            if not v.is_integer():
+                raise MocapFormatError(self.src, ln, f"column {self.tname}: {_short(text)} is not an integer")
+            raw = int(v)
+            c = self._count(raw, ln)
             if self._prev_u is None:
                 self._first_u = c
             self._prev_u = c
-            if not self.online:
-                self.counts.append(c)
-            self._prev_raw = int(text)
-            if self.unit != "counter":
-                t = c / TIME_UNITS[self.unit]  # type: ignore[index]
-        else:
-            t = self._clock(text, ln)
-        if t is not None:
+            self._prev_raw = raw
+            self._prev_text = text
+            if self.unit == "counter":
+                return float(c)
+            t = c / TIME_UNITS[self.unit]  # type: ignore[index]
             self._prev_t = t
-            if not self.online:
-                self.times.append(t)
+            return t
+        raw_v = self._number(text, ln, self.tname, self.raw_limit)
+        t = raw_v / TIME_UNITS[self.unit] if self.unit != "s" else raw_v  # type: ignore[index]
+        self._check_step(t, ln, text)
+        self._prev_t = t
+        self._prev_text = text
+        return t
 
-    # -- values -----------------------------------------------------------------------------------
     def _values(self, fields: list[str], ln: int, k: int) -> tuple[float, ...] | None:
         o = self.lay.sensors[k]
         texts = [fields[c].strip().strip('"') for c in o.cols]
         if o.missing_rows == "drop" and any(not t for t in texts):
             return None
-        out = []
-        for text, name in zip(texts, o.names):
-            try:
-                v = float(text)
-            except ValueError:
-                raise MocapFormatError(self.src, ln, f"column {name}: {_short(text)} is not a number") from None
-            if v != v:
-                raise MocapFormatError(self.src, ln, f"column {name} is NaN")
-            if v in (math.inf, -math.inf):
-                raise MocapFormatError(self.src, ln, f"column {name} is infinite ({_short(text)})")
-            out.append(v)
+        out = [self._number(text, ln, name, MAX_ABS) for text, name in zip(texts, o.names)]
         if o.kind == "quaternion" and all(v * v == 0.0 for v in out):
             raise MocapFormatError(
                 self.src, ln, f"zero-norm quaternion ({', '.join(o.names)} = {', '.join(repr(v) for v in out)})"
             )
         return tuple(out)
 
-    def feed(self, line: str, ln: int) -> tuple[float, list[tuple[float, ...] | None]] | None:
-        """Parse one data line (``ln`` 1-based). Online: return ``(time_s, per-sensor w,x,y,z or None)``."""
-        if not line.strip():
-            raise MocapFormatError(self.src, ln, "empty line inside the data (only trailing empty lines are allowed)")
+    def _row(self, line: str, ln: int) -> tuple[float | None, list[tuple[float, ...] | None]]:
+        if self._blank is not None:
+            raise MocapFormatError(self.src, self._blank,
+                                   "empty line inside the data (only trailing empty lines are allowed)")
         fields = self._fields(line, ln)
         vals = [self._values(fields, ln, k) for k in range(len(self.lay.sensors))]
-        self._time(fields, ln)
-        idx = self._n
+        t = self._time(fields, ln)
+        if self._first_ln is None:
+            self._first_ln = ln
         self._n += 1
         self._prev_ln = ln
+        return t, vals
+
+    def feed(self, line: str, ln: int) -> tuple[float, list[tuple[float, ...] | None]] | None:
+        """Parse one data line (``ln`` 1-based). Online: return ``(time_s, per-sensor w,x,y,z or None)``
+        (blank lines are the caller's business); else the row is stored."""
         if not self.online:
-            self.line_nos.append(ln)
+            self._lines([line], ln)
+            return None
+        check_line(line, self.src, ln)
+        if not line.strip():
+            raise MocapFormatError(self.src, ln, "empty line inside the data (only trailing empty lines are allowed)")
+        idx = self._n
+        t, vals = self._row(line, ln)
         for k, v in enumerate(vals):
             if v is None:
                 self.dropped[k] += 1
-            elif not self.online:
-                self.rows[k].append(idx)
-                self.values[k].append(v)
-        if not self.online:
-            return None
-        return self._online_time(idx, ln), [
+        return self._online_time(idx, ln, t), [
             None if v is None else v if self.lay.sensors[k].kind == "quaternion" else self._convert(k, [v], [ln])[0][0]
             for k, v in enumerate(vals)
         ]
 
-    def _online_time(self, idx: int, ln: int) -> float:
-        if self.unit not in ("counter", None):
-            return self._prev_t  # type: ignore[return-value]
+    def _online_time(self, idx: int, ln: int, t: float | None) -> float:
+        if not (self.unit == "counter" or self.tcol is None):
+            return t  # type: ignore[return-value]
         rate = self.lay.rate
-        if self.unit is None:
-            return idx / rate  # type: ignore[operator]
-        if self._step is None and idx >= 1:
-            self._step = self._prev_u - self._first_u  # type: ignore[operator]
-        t = (self._prev_u - self._first_u) / (rate * (self._step or 1))  # type: ignore[operator]
-        if idx and not (t > self._last_online):
-            raise MocapFormatError(self.src, ln, f"time {t!r} s from {self.tname} is not after the previous row")
+        if self.tcol is None:
+            t = idx / rate  # type: ignore[operator]
+        else:
+            if self._step is None and idx >= 1:
+                self._step = self._prev_u - self._first_u  # type: ignore[operator]
+            t = (self._prev_u - self._first_u) / (rate * (self._step or 1))  # type: ignore[operator]
+        if not (abs(t) <= MAX_ABS):
+            raise MocapFormatError(self.src, ln, f"time {t!r} s from {self.tname or 'the row index'} and the rate "
+                                   f"{rate:g} Hz is out of range (|t| > {MAX_ABS:g} s)")
+        if idx and not (t - self._last_online >= MIN_STEP):
+            raise MocapFormatError(self.src, ln, f"time {t!r} s from {self.tname or 'the row index'} and the rate "
+                                   f"{rate:g} Hz is not at least {MIN_STEP:g} s after the previous row")
         self._last_online = t
         return t
 
-    _last_online = -math.inf
+    # ---------------------------------------------------------------------------------------------
+    # blocks (files)
+    # ---------------------------------------------------------------------------------------------
+    def feed_block(self, text: str, first_ln: int, n_lines: int, final: bool, terminated: bool) -> None:
+        """Parse ``n_lines`` lines (``\\n``-ended, the last one maybe not when ``final``) starting at
+        line ``first_ln``. Empty lines are allowed only at the end of the input."""
+        if n_lines == 0:
+            return
+        body = text[:-1] if terminated else text
+        n = n_lines
+        if final:
+            if not terminated and body[body.rfind("\n") + 1:].strip():
+                self._final_ln = first_ln + n_lines - 1
+            core = body.rstrip()
+            if len(core) < len(body):       # the lines after `core` are empty: allowed at the end
+                n = core.count("\n") + 1 if core else 0
+                body = core
+        if n and not self._bulk(body, first_ln, n):
+            self._lines(body.split("\n"), first_ln)
+        if self._final_ln is not None and self._blank is None:
+            self._check_cut(body)
+        self._keep_tail(body)
 
-    # -- results ----------------------------------------------------------------------------------
+    def _lines(self, lines: Sequence[str], first_ln: int) -> None:
+        ts: list[float | None] = []
+        vals: list[list[tuple[float, ...] | None]] = []
+        lns: list[int] = []
+        idx0 = self._n
+        for i, line in enumerate(lines):
+            ln = first_ln + i
+            if not line.strip():
+                if self._blank is None:
+                    self._blank = ln
+                    self._blank_run = 0
+                self._blank_run += 1
+                if self._blank_run > MAX_BLANK_LINES:
+                    raise MocapFormatError(self.src, self._blank, f"more than {MAX_BLANK_LINES} empty lines from "
+                                           "here on: not an IMU export")
+                continue
+            t, v = self._row(line, ln)
+            ts.append(t)
+            vals.append(v)
+            lns.append(ln)
+        if ts:
+            self._store_rows(ts, vals, idx0, lns)
+
+    def _store_rows(self, ts, vals, idx0: int, lns: list[int]) -> None:
+        if self._times is not None:
+            self._times.extend(np.array(ts, dtype=np.float64))
+        for k in range(len(self.lay.sensors)):
+            keep = [i for i, v in enumerate(vals) if v[k] is not None]
+            if len(keep) < len(vals):
+                gone = np.array([i for i, v in enumerate(vals) if v[k] is None], dtype=np.intp) + idx0
+                self._drops[k].append(gone)
+                self.dropped[k] += len(gone)
+            if keep:
+                q, _ = self._convert(k, [vals[i][k] for i in keep], [lns[i] for i in keep])
+                self._vals[k].extend(q)
+
+    def _bulk(self, body: str, first_ln: int, n: int) -> bool:
+        """Convert a clean block in one go; ``False`` (nothing stored, state unchanged) when the block
+        needs the line-by-line path (text or quotes, an empty cell, any error)."""
+        if n < BULK_MIN_LINES or not self._fast or self._blank is not None or not body.isascii():
+            return False
+        raw = body.encode("ascii")
+        if raw.translate(None, self._alphabet):
+            return False
+        d = self.lay.delim
+        if d is not None and not self._delimiters_ok(raw, n, ord(d)):
+            return False
+        try:
+            if d is None:
+                arr = np.loadtxt(io.StringIO(body), dtype=np.float64, comments=None, ndmin=2)
+                if arr.shape != (n, self.ncols):
+                    return False
+                arr = arr[:, self._used]
+            else:
+                arr = np.loadtxt(io.StringIO(body), delimiter=d, usecols=self._used, dtype=np.float64,
+                                 comments=None, ndmin=2)
+        except ValueError:
+            return False
+        if arr.shape != (n, len(self._used)):
+            return False
+        j = 0
+        t = None
+        if self.tcol is not None:
+            t = self._bulk_time(arr[:, 0], first_ln, n)
+            if t is None:
+                return False
+            j = 1
+        parts = []
+        for o in self.lay.sensors:
+            v = arr[:, j: j + len(o.cols)]
+            j += len(o.cols)
+            if not (np.abs(v) <= MAX_ABS).all():
+                return False
+            if o.kind == "quaternion" and ((v * v) == 0.0).all(axis=1).any():
+                return False
+            parts.append(v)
+        # everything checked: commit
+        converted = [self._convert(k, v, np.arange(first_ln, first_ln + n))[0] for k, v in enumerate(parts)]
+        if self._first_ln is None:
+            self._first_ln = first_ln
+        if t is not None:
+            t_vals, state = t
+            self._times.extend(t_vals)  # type: ignore[union-attr]
+            self._commit_time(state, body)
+        for k, q in enumerate(converted):
+            self._vals[k].extend(q)
+        self._n += n
+        self._prev_ln = first_ln + n - 1
+        return True
+
+    def _delimiters_ok(self, raw: bytes, n: int, dcode: int) -> bool:
+        a = np.frombuffer(raw, dtype=np.uint8)
+        ends = np.flatnonzero(a == 10)
+        if len(ends) != n - 1:
+            return False
+        ends = np.append(ends, len(a))
+        per = np.diff(np.searchsorted(np.flatnonzero(a == dcode), ends), prepend=0)
+        want = self.ncols - 1
+        if (per == want).all():
+            return True
+        extra = per == want + 1  # one trailing delimiter (Xsens MT Manager ends its lines with a tab)
+        if not ((per == want) | extra).all():
+            return False
+        return bool((a[ends[extra] - 1] == dcode).all())
+
+    def _bulk_time(self, raw: np.ndarray, first_ln: int, n: int):
+        """``(times or counts to store, state)`` for a block's time cells, or ``None`` (line path)."""
+        if self.counting:
+            if not ((raw >= 0) & (raw < COUNTER_LIMIT) & (raw == np.floor(raw))).all():
+                return None
+            r = raw.astype(np.int64)
+            mod = self.wrap
+            if self._prev_u is None:
+                d = np.diff(r)
+                d = np.concatenate(([1], d))
+            else:
+                d = np.diff(r, prepend=self._prev_raw)
+            neg = d < 0
+            if (d == 0).any():
+                return None
+            if neg.any():
+                if not mod:
+                    return None
+                prev = r - d
+                w = d[neg] + mod
+                if not ((r[neg] < mod) & (prev[neg] < mod) & (w >= 1) & (w <= mod // 2)).all():
+                    return None
+                nxt = np.flatnonzero(neg) + 1
+                nxt = nxt[nxt < n]
+                if ((d[nxt] <= 0) | (d[nxt] > mod // 2)).any():
+                    return None
+            if self._pending is not None and not (1 <= d[0] <= (mod or 0) // 2):
+                return None
+            offs = self._offset + (mod or 0) * np.cumsum(neg)
+            u = r + offs
+            pending = None
+            if neg[-1]:
+                pending = (first_ln + n - 2 if n >= 2 else self._prev_ln, int(r[-2]) if n >= 2 else self._prev_raw,
+                           int(r[-1]))
+            state = ("count", int(r[-1]), int(u[-1]), int(offs[-1]), pending, int(u[0]))
+            if self.unit == "counter":
+                return u.astype(np.float64), state
+            t = u / TIME_UNITS[self.unit]  # type: ignore[index]
+            if self._prev_t is not None and not (t[0] - self._prev_t >= MIN_STEP):
+                return None
+            if n > 1 and not (np.diff(t) >= MIN_STEP).all():
+                return None
+            return t, state + (float(t[-1]),)
+        if not (np.abs(raw) <= self.raw_limit).all():
+            return None
+        t = raw / TIME_UNITS[self.unit] if self.unit != "s" else raw  # type: ignore[index]
+        if self._prev_t is not None and not (t[0] - self._prev_t >= MIN_STEP):
+            return None
+        if n > 1 and not (np.diff(t) >= MIN_STEP).all():
+            return None
+        return t, ("clock", float(t[-1]))
+
+    def _commit_time(self, state: tuple, body: str) -> None:
+        last = body[body.rfind("\n") + 1:]
+        fields = last.split(self.lay.delim) if self.lay.delim is not None else last.split()
+        self._prev_text = fields[self.tcol].strip()  # type: ignore[index]
+        if state[0] == "clock":
+            self._prev_t = state[1]
+            return
+        _, self._prev_raw, self._prev_u, self._offset, self._pending, first_u = state[:6]
+        if self._n == 0:
+            self._first_u = first_u
+        if len(state) > 6:
+            self._prev_t = state[6]
+
+    # ---------------------------------------------------------------------------------------------
+    # the last line of a file without a line end
+    # ---------------------------------------------------------------------------------------------
+    def split(self, line: str) -> list[str]:
+        """The fields of a line (the layout's delimiter)."""
+        return line.split(self.lay.delim) if self.lay.delim is not None else line.split()
+
+    def _keep_tail(self, body: str) -> None:
+        lines = body.rsplit("\n", CUT_CONTEXT)
+        self._tail = (self._tail + lines)[-CUT_CONTEXT:]
+
+    def _check_cut(self, body: str) -> None:
+        lines = (self._tail + body.rsplit("\n", CUT_CONTEXT + 1))[-(CUT_CONTEXT + 1):]
+        lines = [ln for ln in lines if ln.strip()]
+        if len(lines) < 3:     # two rows before it at least: one row says little about a column's format
+            return
+        self.check_cut_line([self.split(x) for x in lines[:-1]], lines[-1], self._final_ln)  # type: ignore[arg-type]
+
+    def check_cut_line(self, prev_rows: list[list[str]], last: str, ln: int) -> None:
+        """Report a last line (without a line end) whose last number looks cut short: an error in a
+        used column, a warning in another."""
+        self._final_ln = ln
+        if len(prev_rows) < 2:
+            return
+        fields = self.split(last)
+        j = cut_short_cell(prev_rows, fields)
+        if j is None:
+            return
+        name = self.lay.names[j] if j < len(self.lay.names) else f"column {j + 1}"
+        what = (f"column {name}: {_short(fields[j].strip())} has fewer decimals than the rows before it and the "
+                "file ends there without a line end")
+        if j in self._used:
+            raise MocapFormatError(self.src, ln, f"{what}: the file was cut short (delete this line to read the rest)")
+        self.warnings.append(f"line {ln}: {what} (an unused column; the file may have been cut short)")
+
+    # ---------------------------------------------------------------------------------------------
+    # results
+    # ---------------------------------------------------------------------------------------------
     def _convert(self, k: int, values, line_nos) -> tuple[np.ndarray, str | None]:
         o = self.lay.sensors[k]
-        arr = np.array(values, dtype=np.float64).reshape(len(values), len(o.cols))
+        arr = np.asarray(values, dtype=np.float64).reshape(len(values), len(o.cols))
         if o.kind == "matrix":
-            return quaternions_from_matrices(arr, self.src, line_nos, o.names)
+            q, dev = matrices_to_quaternions(arr, self.src, line_nos, o.names)
+            if not self.online:
+                self._dev[k] = max(self._dev[k], dev)
+            return q, matrix_note(o.names, dev)
         if o.kind == "euler":
             return quaternions_from_euler(arr, o.degrees, o.names)
-        return arr, None
+        return np.ascontiguousarray(arr), None
 
-    def _implausible_rate(self, times: list[float]) -> str | None:
+    def _implausible_rate(self, times: np.ndarray) -> str | None:
         """A warning when a guessed time unit gives a rate outside :data:`PLAUSIBLE_RATE`."""
         if self.lay.time.stated or len(times) < 2:
             return None
-        dt = float(np.median(np.diff(np.asarray(times, dtype=np.float64))))
+        dt = float(np.median(np.diff(times)))
         lo, hi = PLAUSIBLE_RATE
         rate = 1.0 / dt
         if lo <= rate <= hi:
@@ -282,47 +633,74 @@ class RowReader:
                 f"{dt:.6g} s gives {rate:.6g} Hz, outside the {lo:g}-{hi:g} Hz of orientation sensors{hint}; "
                 "if that is not its unit, give --time-unit s|ms|us|ns")
 
-    def finish(self) -> tuple[np.ndarray, list[tuple[np.ndarray, np.ndarray, str | None]], list[str]]:
-        """``(times of all rows, [(row indices, (M, 4) w,x,y,z, conversion) per sensor], warnings)``."""
-        if not self.line_nos:
+    def _counter_step(self, c: np.ndarray) -> int:
+        if len(c) <= 4096:
+            tally: Counter[int] = Counter(np.diff(c).astype(np.int64).tolist())
+            return min(tally, key=lambda s: (-tally[s], s))
+        tally = Counter()
+        chunk = 1 << 20
+        for i in range(0, len(c) - 1, chunk):
+            vals, counts = np.unique(np.diff(c[i: i + chunk + 1]), return_counts=True)
+            for v, k in zip(vals.tolist(), counts.tolist()):
+                tally[int(v)] += int(k)
+        return min(tally, key=lambda s: (-tally[s], s)) if tally else 1
+
+    def _check_times(self, t: np.ndarray, what: str) -> None:
+        first = self._first_ln or 0
+        bad = ~(np.abs(t) <= MAX_ABS)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise MocapFormatError(self.src, first + i, f"time {float(t[i])!r} s ({what}) is out of range "
+                                   f"(|t| > {MAX_ABS:g} s)")
+        if len(t) > 1:
+            small = np.flatnonzero(~(np.diff(t) >= MIN_STEP))
+            if small.size:
+                i = int(small[0]) + 1
+                raise MocapFormatError(
+                    self.src, first + i, f"time {float(t[i])!r} s ({what}) is not at least {MIN_STEP:g} s after "
+                    f"{float(t[i - 1])!r} s on line {first + i - 1}",
+                )
+
+    def finish(self) -> tuple[np.ndarray, list[tuple[np.ndarray | None, np.ndarray, str | None]], list[str]]:
+        """``(times of all rows, [(kept row indices or None for all, (M, 4) w,x,y,z, conversion) per
+        sensor], warnings)``."""
+        n = self._n
+        if n == 0:
             raise MocapFormatError(self.src, self.lay.header_line, "header only: no data rows after the header")
-        warnings: list[str] = []
-        n = len(self.line_nos)
+        warnings: list[str] = list(self.warnings)
         rate = self.lay.rate
-        if self.unit in ("counter", None):
-            if self.unit is None:
-                times = [i / rate for i in range(n)]  # type: ignore[operator]
-            else:
-                step = 1
-                if n > 1:
-                    tally = Counter(b - a for a, b in zip(self.counts, self.counts[1:]))
-                    step = min(tally, key=lambda s: (-tally[s], s))
-                if step != 1:
-                    warnings.append(
-                        f"{self.tname} steps by {step} between rows: read as one sample every {step} counts at "
-                        f"{rate:g} Hz (t = (counter - first) / ({rate:g} * {step}))"
-                    )
-                first = self.counts[0]
-                try:
-                    times = [(u - first) / (rate * step) for u in self.counts]  # type: ignore[operator]
-                except OverflowError:
-                    raise MocapFormatError(self.src, None, f"{self.tname} values are too large") from None
-            for i in range(1, n):
-                if not (times[i] > times[i - 1]) or not math.isfinite(times[i]):
-                    raise MocapFormatError(
-                        self.src, self.line_nos[i], f"time {times[i]!r} s (from the sample rate {rate:g} Hz) is "
-                        f"not after {times[i - 1]!r} s on line {self.line_nos[i - 1]}",
-                    )
+        if self.tcol is None:
+            times = np.arange(n, dtype=np.float64) / rate  # type: ignore[operator]
+            self._check_times(times, f"row index / {rate:g} Hz")
+        elif self.unit == "counter":
+            times = self._times.array()  # type: ignore[union-attr]
+            step = self._counter_step(times) if n > 1 else 1
+            if step != 1:
+                warnings.append(
+                    f"{self.tname} steps by {step} between rows: read as one sample every {step} counts at "
+                    f"{rate:g} Hz (t = (counter - first) / ({rate:g} * {step}))"
+                )
+            np.subtract(times, times[0], out=times)
+            np.divide(times, rate * step, out=times)  # type: ignore[operator]
+            self._check_times(times, f"from {self.tname} and the sample rate {rate:g} Hz")
         else:
-            times = self.times
+            times = self._times.array()  # type: ignore[union-attr]
             note = self._implausible_rate(times)
             if note:
                 warnings.append(note)
         out = []
         for k, o in enumerate(self.lay.sensors):
-            if not self.rows[k]:
+            q = self._vals[k].array()
+            if len(q) == 0:
                 raise MocapFormatError(self.src, None, f"{o.sensor or 'the orientation'} has no complete row "
                                        f"(columns {', '.join(o.names)})")
-            q, how = self._convert(k, self.values[k], [self.line_nos[i] for i in self.rows[k]])
-            out.append((np.array(self.rows[k], dtype=np.intp), q, how))
-        return np.array(times, dtype=np.float64), out, warnings
+            rows = None
+            if self._drops[k]:
+                mask = np.ones(n, dtype=bool)
+                for g in self._drops[k]:
+                    mask[g] = False
+                rows = np.flatnonzero(mask)
+            how = (matrix_note(o.names, self._dev[k]) if o.kind == "matrix"
+                   else euler_note(o.names, o.degrees) if o.kind == "euler" else None)
+            out.append((rows, q, how))
+        return times, out, warnings

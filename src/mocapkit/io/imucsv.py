@@ -2,9 +2,18 @@
 
 Every reader returns :class:`mocapkit.motion.Signal` objects of kind ``"quaternion"``: ``times`` in
 float64 seconds (strictly increasing, irregular sampling kept as is) and ``values`` ``(N, 4)``
-float64, scalar-first ``w, x, y, z`` exactly as parsed by :func:`float` (never normalised or
-sign-flipped; scalar-last files are reordered; a rotation matrix or Euler angles are converted, see
-:mod:`mocapkit.io.imu_orientation`).
+float64, scalar-first ``w, x, y, z`` exactly as written (never normalised or sign-flipped; scalar-last
+files are reordered; a rotation matrix or Euler angles are converted, see
+:mod:`mocapkit.io.imu_orientation`). Numbers follow the strict grammar of :mod:`mocapkit.io.numbers`
+(no ``0_5``, no ``nan``/``inf``; orientation values within ``MAX_ABS``, clocks within ``MAX_ABS``
+seconds in their own unit, so an epoch in ns is read); see :mod:`~mocapkit.io.imu_rows`.
+
+Memory and input: a file, a FIFO or a device is read in chunks of whole lines
+(:mod:`~mocapkit.io.imu_lines`: NUL bytes, lines over 1 MiB and non-UTF-8 bytes are errors at once),
+the layout is found in the first :data:`MAX_HEAD_LINES` lines, and the rows go block by block into
+growing float64 arrays: the peak memory stays near the size of the returned arrays (an 800 MB
+export with a time and four quaternion columns peaks at about 1.4x its numbers;
+``benchmarks/imu_memory.py``).
 
 How a file is read (details in the modules named):
 
@@ -15,7 +24,8 @@ How a file is read (details in the modules named):
   sample rate), header, units rows, first data row.
 - :mod:`~mocapkit.io.imu_vendors`: OptiTrack Motive's multi-row header; the vendor label in
   ``meta["format"]``.
-- :mod:`~mocapkit.io.imu_rows`: the rows (column counts, numbers, time order, counter wrap and step).
+- :mod:`~mocapkit.io.imu_rows`: the rows (column counts, strict finite numbers, time order and step,
+  counter wrap and step, a last line cut short).
 
 When the guess is wrong, keyword arguments (CLI flags) override it: ``time_column``
 (``--time-column``), ``quaternion_columns`` (``--quaternion-columns W,X,Y,Z``), ``scalar_last``
@@ -47,7 +57,7 @@ the 1-based line.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -57,10 +67,12 @@ from mocapkit.errors import (
     InvalidSignalError,
     MocapFormatError,
 )
-from mocapkit.io.atomic import atomic_write_text, read_file_bytes
+from mocapkit.io.atomic import atomic_write_text
 from mocapkit.io.imu_columns import ColumnOptions
 from mocapkit.io.imu_layout import EXPECTED, Layout, find_layout
-from mocapkit.io.imu_rows import RowReader
+from mocapkit.io.imu_lines import Block, file_blocks, open_input, text_blocks
+from mocapkit.io.imu_rows import MIN_STEP, RowReader
+from mocapkit.io.numbers import MAX_ABS
 from mocapkit.motion import Signal
 
 __all__ = [
@@ -94,6 +106,10 @@ DATA_SUFFIXES = (".csv", ".txt")
 
 _BOM = "\ufeff"
 
+#: The layout is read from at most this many first lines (or :data:`MAX_HEAD_BYTES` characters).
+MAX_HEAD_LINES = 1000
+MAX_HEAD_BYTES = 1 << 23
+
 
 def _check_rate_arg(rate: float | None) -> float | None:
     if rate is None:
@@ -104,6 +120,8 @@ def _check_rate_arg(rate: float | None) -> float | None:
         raise InvalidParameterError(f"rate must be a number of Hz, got {rate!r}") from None
     if not (math.isfinite(r) and r > 0):
         raise InvalidParameterError(f"rate must be a finite positive number of Hz, got {rate!r}")
+    if r > 1 / MIN_STEP:
+        raise InvalidParameterError(f"rate must be at most {1 / MIN_STEP:g} Hz, got {rate!r}")
     return r
 
 
@@ -126,18 +144,6 @@ def split_lines(text: str) -> list[str]:
     return [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
 
 
-def _decode(data: bytes, src: str) -> str:
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = data.count(b"\n", 0, exc.start) + 1
-        raise MocapFormatError(
-            src, line, f"not UTF-8 text: byte 0x{data[exc.start]:02x} cannot be decoded"
-        ) from None
-
-
 def _default_name(source: str) -> str:
     if source.startswith("<") and source.endswith(">"):
         return source[1:-1]
@@ -156,14 +162,38 @@ def _content_end(lines: list[str]) -> int:
 # --------------------------------------------------------------------------------------------------
 
 
-def _parse(lines: list[str], src: str, rate: float | None, name: str, opts: ColumnOptions) -> dict[str, Signal]:
+def _read(blocks: Iterator[Block], src: str, rate: float | None, name: str, opts: ColumnOptions,
+          size_hint: int | None = None) -> dict[str, Signal]:
+    """Read an export from its blocks of lines: the layout from the first lines (at most
+    :data:`MAX_HEAD_LINES` or :data:`MAX_HEAD_BYTES`), then the rows block by block."""
+    head: list[Block] = []
+    n_lines = n_chars = 0
+    for b in blocks:
+        head.append(b)
+        n_lines += b.n_lines
+        n_chars += len(b.text)
+        if b.final or n_lines >= MAX_HEAD_LINES or n_chars >= MAX_HEAD_BYTES:
+            break
+    final = head[-1].final
+    text = "".join(b.text for b in head)
+    terminated = not text or text.endswith("\n")
+    lines = text.split("\n")
+    if text.endswith("\n"):
+        lines.pop()
     end = _content_end(lines)
     if end == 0:
-        raise MocapFormatError(src, 1, "empty file (expected a header line such as 'Timestamp (us),W,X,Y,Z')")
+        if final:
+            raise MocapFormatError(src, 1, "empty file (expected a header line such as 'Timestamp (us),W,X,Y,Z')")
+        raise MocapFormatError(src, 1, f"only empty lines in the first {len(lines)} lines: not an IMU export")
     lay = find_layout(lines, end, src, rate, opts)
-    reader = RowReader(lay, src)
-    for k in range(lay.data_index, end):
-        reader.feed(lines[k], k + 1)
+    reader = RowReader(lay, src, size_hint=size_hint)
+    rest = lines[lay.data_index:]
+    if rest:
+        ends = not final or terminated
+        reader.feed_block("\n".join(rest) + ("\n" if ends else ""), lay.data_index + 1, len(rest), final, ends)
+    del head, text, lines, rest
+    for b in blocks:
+        reader.feed_block(b.text, b.first_line, b.n_lines, b.final, b.terminated)
     times, per_sensor, warnings = reader.finish()
     out: dict[str, Signal] = {}
     for o, (rows, q, how), dropped in zip(lay.sensors, per_sensor, reader.dropped):
@@ -176,7 +206,8 @@ def _parse(lines: list[str], src: str, rate: float | None, name: str, opts: Colu
         if sig_name in out:
             raise MocapFormatError(src, lay.header_line, f"two sensors named {sig_name!r}")
         try:
-            out[sig_name] = Signal(times[rows], q, kind="quaternion", name=sig_name, source=src, meta=meta)
+            out[sig_name] = Signal(times if rows is None else times[rows], q, kind="quaternion", name=sig_name,
+                                   source=src, meta=meta)
         except InvalidSignalError as exc:  # pragma: no cover - the row checks should catch everything
             raise MocapFormatError(src, None, str(exc)) from None
     return out
@@ -224,8 +255,9 @@ def read_imu_file(path: str | Path, rate: float | None = None, *, options: Colum
     src = str(p)
     opts = _options(options, columns)
     r = _check_rate_arg(rate)
-    text = _decode(read_file_bytes(p, "file"), src)
-    return _parse(split_lines(text), src, r, p.stem, opts)
+    fh, size = open_input(p, "file")
+    with fh:
+        return _read(file_blocks(fh, src), src, r, p.stem, opts, size)
 
 
 def _one(signals: dict[str, Signal], src: str) -> Signal:
@@ -270,7 +302,7 @@ def read_imu_text(text: str, source: str, rate: float | None = None, name: str |
     r = _check_rate_arg(rate)
     src = str(source)
     opts = _options(options, columns)
-    sigs = _parse(split_lines(text), src, r, _default_name(src) if name is None else name, opts)
+    sigs = _read(text_blocks(text, src), src, r, _default_name(src) if name is None else name, opts, len(text))
     return _one(sigs, src)
 
 
@@ -447,6 +479,9 @@ def write_signal_csv(path: str | Path, signal_times: Sequence[float] | np.ndarra
                      header: Sequence[str] = ("time", "w", "x", "y", "z")) -> None:
     """Write ``time,w,x,y,z`` CSV atomically; the numbers read back bit-exactly.
 
+    NaN, infinity and magnitudes beyond :data:`~mocapkit.io.numbers.MAX_ABS` are refused
+    (:class:`~mocapkit.errors.InvalidSignalError`): the readers would refuse the file.
+
     With the default header the file is read back by :func:`read_imu_csv` (generic format).
     """
     t = np.asarray(signal_times, dtype=np.float64)
@@ -459,6 +494,8 @@ def write_signal_csv(path: str | Path, signal_times: Sequence[float] | np.ndarra
         raise InvalidSignalError(f"header has {len(header)} columns but rows have {v.shape[1] + 1}")
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v))):
         raise InvalidSignalError("cannot write NaN or infinite values")
+    if not (np.all(np.abs(t) <= MAX_ABS) and np.all(np.abs(v) <= MAX_ABS)):
+        raise InvalidSignalError(f"cannot write values beyond ±{MAX_ABS:g} (the readers refuse them)")
     parts = [",".join(header), "\n"]
     for ti, row in zip(t.tolist(), v.tolist()):
         parts.append(format_row(ti, row))

@@ -13,6 +13,10 @@ Two file formats are read:
 :func:`read_reference` tells the two apart and checks the file against the take (call it before any
 long computation). :func:`labels_from_frames` builds a :class:`Reference` from a per-frame label
 array (synthetic data, tests).
+
+Integers are plain ASCII decimals of at most 15 digits (no ``1_0``, no other scripts' digits, nothing
+that would overflow ``int64``); a pipe or device is read in bounded chunks and a NUL byte is refused
+(:mod:`mocapkit.io.textinput`); text is UTF-8, else Latin-1.
 """
 
 from __future__ import annotations
@@ -53,6 +57,7 @@ MOCAP6_ACTIONS: Mapping[int, str] = {
 }
 
 _LINE_SPLIT_RE = re.compile(r"\r\n|\r|\n")
+_INT_RE = re.compile(r"[+-]?[0-9]{1,15}")
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,22 +165,18 @@ class Reference:
 
 def _read_lines(path: str | Path) -> tuple[str, list[str]]:
     """The file's name and its lines (CRLF, LF or CR ends; a UTF-8 byte-order mark is dropped)."""
-    from mocapkit.io.atomic import read_file_bytes
+    from mocapkit.io.textinput import decode_text, read_input
 
     src = str(Path(path))
-    data = read_file_bytes(path)
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
-    text = data.decode("utf-8", errors="replace")
+    text, _ = decode_text(read_input(path, "label file"))
     return src, _LINE_SPLIT_RE.split(text)
 
 
 def _parse_int(src: str, ln: int, token: str, what: str) -> int:
-    try:
-        return int(token)
-    except ValueError:
+    if not _INT_RE.fullmatch(token):
         shown = token if len(token) <= 40 else token[:37] + "..."
-        raise MocapFormatError(src, ln, f"{what} must be an integer, got {shown!r}") from None
+        raise MocapFormatError(src, ln, f"{what} must be an integer (at most 15 digits), got {shown!r}")
+    return int(token)
 
 
 def _check_rate(rate_hz: float) -> float:
@@ -400,7 +401,7 @@ def read_reference(path: str | Path, n_frames: int, rate_hz: float = 120.0) -> R
     rate = _check_rate(rate_hz)
     src, lines = _read_lines(path)
     rows = [ln.split() for ln in lines if ln.strip()]
-    haca = any(not tok.lstrip("-").isdigit() for ln in rows[1:] for tok in ln)
+    haca = any(not _INT_RE.fullmatch(tok) for ln in rows[1:] for tok in ln)
     if haca:
         return read_haca_labels(path, n_frames=n_frames, rate_hz=rate)
     return read_frame_labels(path, n_frames=n_frames, frames_per_label=max(1, int(round(rate / 10.0))), rate_hz=rate)

@@ -24,6 +24,12 @@ def kind_of(path: str | Path) -> str:
     else ``"table"`` (one vector signal, e.g. joint angles).
     """
     p = Path(path)
+    if p.exists() and not p.is_file() and not p.is_dir():  # a pipe or device: by suffix, nothing sniffed
+        s = p.suffix.lower()
+        if s in MARKER_SUFFIXES:
+            return "markers"
+        if s in TABLE_SUFFIXES:  # read_opensim_signals reads it once and tells tables and orientations apart
+            return "table"
     if p.is_file() or not p.exists():
         s = p.suffix.lower()
         if s in SKELETAL_SUFFIXES:
@@ -114,7 +120,7 @@ def _marker_csv(path: Path) -> str | None:
         return "vicon"
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
-            head = fh.readline().lstrip("\ufeff").strip()
+            head = fh.readline(1 << 20).lstrip("\ufeff").strip()  # bounded: a file may hold no newline
     except OSError:
         return None
     cols = [re.sub(r"\s*\([^()]*\)$", "", c.strip().strip('"')).lower() for c in head.split(",")]  # drop "(mm)"

@@ -50,17 +50,29 @@ Model mapping
 * Times: ``frameRate`` and the frames' ``index`` give ``t = t0 + (index − index0) / rate`` when
   every frame's ``time`` (whole ms) agrees with it to the ms rounding; otherwise the ``time``
   attribute is used (with a warning), and without ``frameRate`` the ``time`` attribute alone.
+
+Numbers and sizes
+-----------------
+Numbers (element text and the ``frameRate``/``time``/``index`` attributes) follow the strict grammar
+of :mod:`mocapkit.io.numbers`: no ``nan``/``inf`` (MVNX has no missing-value convention), no ``0_5``,
+``|value| > MAX_ABS`` (1e12) refused, each error naming the line, the element and the segment and
+component (``<orientation> of segment 'Pelvis' q0``). ``frameRate`` must lie in [1e-6, 1e9] Hz.
+Declared counts (``segmentCount``...) size nothing: memory follows the frames actually read. A pipe
+or device is read in bounded chunks (at most 256 MiB; a NUL byte is malformed XML at once).
 """
 
 from __future__ import annotations
 
-import math
+import re
 from pathlib import Path
 from xml.parsers import expat
 
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
+from mocapkit.io.numbers import MAX_ABS, parse_number
+from mocapkit.io import textinput
+from mocapkit.io.textinput import is_regular
 from mocapkit.quat import multiply
 from mocapkit.skeleton import Motion, Skeleton, quat_to_matrix
 
@@ -88,6 +100,27 @@ _PLACES = {"subject": _SUBJECT, "segment": _SEGMENT, "point": _POINT, "joint": _
 #: Elements holding numbers or a connector (text only), by the path of their parent.
 _TEXT_ELEMENTS = {"pos_b": _POINT, "connector1": _JOINT, "connector2": _JOINT,
                   "orientation": _FRAME, "position": _FRAME}
+
+
+#: Range accepted for ``frameRate`` (Hz).
+RATE_RANGE = (1e-6, 1e9)
+_NOT_NUMERIC = re.compile(r"[^0-9eE.+\-\s]")
+_INDEX_RE = re.compile(r"[+-]?\d{1,18}", re.ASCII)
+
+
+class _Bounded:
+    """A binary file object that refuses to deliver more than ``limit`` bytes (pipes, devices)."""
+
+    def __init__(self, fh, src: str, limit: int):
+        self.fh, self.src, self.limit, self.total = fh, src, limit, 0
+
+    def read(self, n: int = -1) -> bytes:
+        chunk = self.fh.read(n if n and n > 0 else 1 << 20)
+        self.total += len(chunk)
+        if self.total > self.limit:
+            raise MocapFormatError(self.src, None, f"more than {self.limit:,} bytes from a pipe or device; "
+                                   "save it to a regular file first")
+        return chunk
 
 
 def _local(name: str) -> str:
@@ -127,27 +160,34 @@ class _Reader:
     def fail(self, problem: str, line: int | None = None):
         raise MocapFormatError(self.src, self.p.CurrentLineNumber if line is None else line, problem)
 
-    def numbers(self, text: str, what: str, line: int) -> np.ndarray:
+    def numbers(self, text: str, what: str, line: int, per: int = 0) -> np.ndarray:
+        """The numbers of an element's text by the strict grammar; ``per`` values a segment name the
+        segment and component of a bad value."""
         toks = text.split()
-        try:
-            v = np.array(list(map(float, toks)), dtype=np.float64)
-        except ValueError:
-            bad = next(t for t in toks if not _is_float(t))
-            self.fail(f"{what}: {bad[:40]!r} is not a number", line)
-        if not np.all(np.isfinite(v)):
-            self.fail(f"{what}: NaN or infinite value", line)
+        v = None
+        if not _NOT_NUMERIC.search(text):
+            try:
+                v = np.array(toks, dtype=np.float64)
+            except ValueError:
+                v = None
+        if v is None or not np.all(np.abs(v) <= MAX_ABS):
+            for i, t in enumerate(toks):
+                if t.lower().lstrip("+-") in ("nan", "inf", "infinity"):
+                    self.fail(f"{self._component(what, i, per)}: {t!r} is NaN or infinite (MVNX has no "
+                              "missing-value convention)", line)
+                parse_number(t, self.src, line, self._component(what, i, per))
         return v
+
+    def _component(self, what: str, i: int, per: int) -> str:
+        if per and i // per < len(self.segments):
+            comp = ("q0", "q1", "q2", "q3")[i % per] if per == 4 else "xyz"[i % per]
+            return f"{what} of segment {self.segments[i // per]['label']!r} {comp}"
+        return f"{what} value {i + 1}"
 
     def attr_float(self, attrs: dict, key: str, what: str) -> float | None:
         if key not in attrs or attrs[key].strip() == "":
             return None
-        try:
-            v = float(attrs[key])
-        except ValueError:
-            self.fail(f"{what} {key}={attrs[key][:40]!r} is not a number")
-        if not math.isfinite(v):
-            self.fail(f"{what} {key}={attrs[key]!r} is not finite")
-        return v
+        return parse_number(attrs[key].strip(), self.src, self.p.CurrentLineNumber, f"{what} {key}")
 
     # -- handlers ----------------------------------------------------------------------------------
     def start(self, name: str, attrs: dict) -> None:
@@ -174,8 +214,9 @@ class _Reader:
             self.subject = dict(attrs)
             self.subject_line = self.p.CurrentLineNumber
             rate = self.attr_float(attrs, "frameRate", "<subject>")
-            if rate is not None and rate <= 0:
-                self.fail(f"<subject> frameRate={attrs['frameRate']!r} must be positive")
+            if rate is not None and not RATE_RANGE[0] <= rate <= RATE_RANGE[1]:
+                self.fail(f"<subject> frameRate={attrs['frameRate']!r} must be positive (between "
+                          f"{RATE_RANGE[0]:g} and {RATE_RANGE[1]:g} Hz)")
             self.subject["_rate"] = rate
         elif path == _SEGMENT:
             label = attrs.get("label", "").strip()
@@ -208,10 +249,9 @@ class _Reader:
             t = self.attr_float(attrs, "time", "<frame>")
             idx = attrs.get("index")
             if idx is not None and idx.strip() != "":
-                try:
-                    idx = int(idx)
-                except ValueError:
+                if not _INDEX_RE.fullmatch(idx.strip()):
                     self.fail(f"<frame> index={idx[:40]!r} is not an integer")
+                idx = int(idx)
             else:
                 idx = None
             self.frame = {"line": line, "time": t, "index": idx, "orientation": None, "position": None}
@@ -276,18 +316,10 @@ class _Reader:
         else:
             S = len(self.segments)
             k = 4 if tag == "orientation" else 3
-            v = self.numbers(text, f"<{tag}>", line)
+            v = self.numbers(text, f"<{tag}>", line, k)
             if v.size != k * S:
                 self.fail(f"<{tag}> holds {v.size} numbers, expected {k} per segment × {S} segments = {k * S}", line)
             self.frame[tag] = v.reshape(S, k)
-
-
-def _is_float(tok: str) -> bool:
-    try:
-        float(tok)
-    except ValueError:
-        return False
-    return True
 
 
 def read_mvnx(path: str | Path, gap_tolerance_m: float = GAP_TOLERANCE_M) -> Motion:
@@ -311,7 +343,7 @@ def read_mvnx(path: str | Path, gap_tolerance_m: float = GAP_TOLERANCE_M) -> Mot
     parser.CharacterDataHandler = r.chars
     try:
         with open(path, "rb") as fh:
-            parser.ParseFile(fh)
+            parser.ParseFile(fh if is_regular(path) else _Bounded(fh, src, textinput.MAX_STREAM_BYTES))
     except expat.ExpatError as e:
         raise MocapFormatError(src, e.lineno, f"malformed XML: {expat.ErrorString(e.code)} (column {e.offset + 1})") from None
     except (FileNotFoundError, IsADirectoryError, PermissionError) as e:

@@ -25,7 +25,7 @@ MAX_ABS = 1e12
 """Largest magnitude accepted for any coordinate, angle, quaternion component or time (squares and
 sums of up to 1e6 such values stay far below float64's 1.8e308)."""
 
-NUMBER_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?")
+NUMBER_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)  # ASCII: no other digits
 _fullmatch = NUMBER_RE.fullmatch
 
 
@@ -87,3 +87,21 @@ def check_finite_array(values: np.ndarray, src: str, field: str, *, first_line: 
     line = None if first_line is None else first_line + flat
     what = "not finite" if not np.isfinite(v) else f"out of range (|value| > {limit:g})"
     raise MocapFormatError(src, line, f"{field}: {v!r} is {what}")
+
+
+def token_shape(tok: str) -> tuple[int, int]:
+    """``(decimals, exponent digits)`` of a number token: ``"-0.1240e-05"`` → ``(4, 2)``."""
+    mant, _, exp = tok.lower().partition("e")
+    return (len(mant) - mant.index(".") - 1 if "." in mant else 0), len(exp.lstrip("+-"))
+
+
+def looks_cut(last: str, column: Iterable[str]) -> bool:
+    """True when ``last`` — the final token of a file that ends without a newline — has fewer
+    decimals or fewer exponent digits than *every* token of ``column`` (the same field on the lines
+    before it): ``-0`` where the column reads ``-0.124044`` was probably cut short by a truncated copy.
+    An empty ``column`` gives False."""
+    shapes = [token_shape(t) for t in column]
+    if not shapes:
+        return False
+    dec, ex = token_shape(last)
+    return dec < min(s[0] for s in shapes) or ex < min(s[1] for s in shapes)

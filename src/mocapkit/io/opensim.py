@@ -41,6 +41,26 @@ free text (``Angles are in degrees.`` in old files). Then a tab-separated column
 and ``.mot`` in :data:`mocapkit.io.imucsv.READERS`). :func:`write_table` and
 :func:`write_orientations` write them back (numbers as ``repr`` unless ``decimals`` is given).
 ``nRows``/``nColumns`` disagreeing with the rows are recorded in ``meta["warnings"]``.
+
+Damaged and hostile files
+-------------------------
+* Numbers follow the strict grammar of :mod:`mocapkit.io.numbers` (no ``0_5``, no ``inf``);
+  ``|value| > MAX_ABS`` (1e12) is refused with the line and the column (``<marker> X`` in a TRC,
+  the column name in a MOT/STO). The only missing-value spellings are those of the formats: an
+  empty cell or ``NaN`` in a TRC (a gap); none in a MOT/STO (an error).
+* Header counts (``NumFrames``, ``NumMarkers``, ``nRows``, ``nColumns``) size nothing: they are only
+  compared with the rows (a warning); more than 18 digits is refused. A TRC whose rows, padded to
+  the markers of line 4, would need far more values than the file holds is refused before the
+  array is allocated. ``DataRate`` must lie in [1e-6, 1e9] Hz. A header line longer than 1 MiB is
+  refused.
+* A file that ends without a newline and whose last line has another number of cells than the line
+  before it (a TRC pads short rows with gaps, but not this one), an empty last cell where every
+  earlier row has a value, or a last value with fewer decimals than the same column on the rows
+  before it (cut in the middle of ``-0.124044``) is an error naming the line and column: the file
+  was cut short (delete that line to read the rest). When the column's decimals vary (``repr``
+  writers) so that a cut cannot be told, the row is read with a warning (``meta["warnings"]`` and
+  :class:`~mocapkit.errors.MocapWarning`).
+* Pipes and devices are read in bounded chunks; a NUL byte is refused (:mod:`mocapkit.io.textinput`).
 """
 
 from __future__ import annotations
@@ -52,7 +72,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError
-from mocapkit.io.atomic import atomic_write_text, read_text_lines
+from mocapkit.io.atomic import atomic_write_text
+from mocapkit.io.numbers import parse_number
+from mocapkit.io.textinput import (MAX_HEADER_LINE, check_cells_budget, final_line_verdict, is_regular, read_text,
+                                  report_final_line)
 from mocapkit.motion import Signal
 
 if TYPE_CHECKING:  # the model is imported lazily (mocapkit.markers imports mocapkit.io)
@@ -75,22 +98,46 @@ __all__ = [
 # --------------------------------------------------------------------------------------------------
 
 
-def _lines(path: Path, what: str) -> tuple[list[str], str]:
-    """Lines of a text file (BOM dropped, CR/LF handled), decoded as UTF-8 or else Latin-1."""
-    return read_text_lines(path, what)
+#: Range accepted for a header rate (Hz).
+RATE_RANGE = (1e-6, 1e9)
+_TRC_MISSING = ("", "NaN", "nan")
+
+
+class _Text:
+    """The lines of a text input, whether it ended with a newline and its size in bytes."""
+
+    def __init__(self, path: Path, what: str, header_lines: int):
+        self.src = str(path)
+        self.lines, self.ends_with_newline, self.encoding, self.size = read_text(path, what)
+        while self.lines and not self.lines[-1].strip():
+            self.lines.pop()
+            self.ends_with_newline = True
+        for i, ln in enumerate(self.lines[:header_lines]):
+            if len(ln) > MAX_HEADER_LINE:
+                raise MocapFormatError(self.src, i + 1, f"header line of {len(ln):,} characters (more than "
+                                       f"{MAX_HEADER_LINE:,})")
 
 
 def _number(cell: str, src: str, line: int, what: str) -> float:
-    c = cell.strip()
-    if not c:
-        return math.nan
-    try:
-        v = float(c)
-    except ValueError:
-        raise MocapFormatError(src, line, f"{what}: {c[:40]!r} is not a number") from None
-    if math.isinf(v):
-        raise MocapFormatError(src, line, f"{what}: {c!r} is infinite")
-    return v
+    """A cell by the strict grammar; an empty cell (or ``NaN``) is ``nan`` (the caller decides)."""
+    return parse_number(cell.strip(), src, line, what, missing=_TRC_MISSING)
+
+
+def _count(v: str) -> int | None:
+    """A header count (``NumFrames``...): a plain integer of at most 18 digits, else ``None``."""
+    t = v.strip()
+    if t.isascii() and t.isdigit() and len(t) <= 18:
+        return int(t)
+    return None
+
+
+def _check_cut(rows: list[list[str]], last: list[str], src: str, line: int, names: list[str],
+               warnings: list[str]) -> None:
+    """Judge a last line written without a newline (:func:`mocapkit.io.textinput.final_line_verdict`):
+    an error when it is evidently cut short, a warning when that cannot be told."""
+    verdict, j = final_line_verdict(rows, last)
+    name = (names[j] if j < len(names) else f"column {j + 1}") if j is not None else "the last value"
+    report_final_line(src, line, verdict, j, name, last[j] if j is not None else "", warnings)
 
 
 def _check_times(times: np.ndarray, src: str, lines_of: list[int]) -> None:
@@ -124,9 +171,8 @@ def read_trc(path: str | Path) -> Markers:
 
     p = Path(path)
     src = str(p)
-    lines, enc = _lines(p, "TRC file")
-    while lines and not lines[-1].strip():
-        lines.pop()
+    txt = _Text(p, "TRC file", 5)
+    lines, enc = txt.lines, txt.encoding
     if not lines or not lines[0].split("\t")[0].strip().lower().startswith("pathfiletype"):
         raise MocapFormatError(src, 1, "not a TRC file (the first line must start with 'PathFileType')")
     if len(lines) < 5:
@@ -142,21 +188,22 @@ def read_trc(path: str | Path) -> Markers:
         v = low.get(key.lower(), "")
         if v == "":
             return None
-        try:
-            x = float(v)
-        except ValueError:
-            raise MocapFormatError(src, 3, f"{key} {v!r} is not a number") from None
-        if integer and x != int(x):
-            raise MocapFormatError(src, 3, f"{key} {v!r} is not an integer")
-        return int(x) if integer else x
+        if integer:
+            n = _count(v)
+            if n is None:
+                raise MocapFormatError(src, 3, f"{key} {v[:40]!r} is not a count (a non-negative integer of at "
+                                       "most 18 digits)")
+            return n
+        return parse_number(v, src, 3, key)
 
     rate = num("DataRate")
     if rate is None:
         rate = num("CameraRate")
     if rate is None:
         raise MocapFormatError(src, 2, "no DataRate (or CameraRate) in the header")
-    if not (math.isfinite(rate) and rate > 0):
-        raise MocapFormatError(src, 3, f"DataRate must be > 0, got {rate!r}")
+    if not RATE_RANGE[0] <= rate <= RATE_RANGE[1]:
+        raise MocapFormatError(src, 3, f"DataRate must be > 0 (between {RATE_RANGE[0]:g} and {RATE_RANGE[1]:g} "
+                               f"Hz), got {rate!r}")
     units = low.get("units", "")
     meta: dict = {"format": "trc", "header": header, "encoding": enc}
     if not units:
@@ -182,13 +229,19 @@ def read_trc(path: str | Path) -> Markers:
             raise MocapFormatError(src, 5, f"coordinate name {j + 1} is {c!r}, expected {'XYZ'[j % 3]}{j // 3 + 1}")
 
     width = 2 + 3 * m
-    rows: list[list[float]] = []
-    row_lines: list[int] = []
+    field = ["Frame#", "Time"] + [f"column {j + 1} ({raw_labels[(j - 2) // 3]} {'XYZ'[(j - 2) % 3]})"
+                                  for j in range(2, width)]
+    body = [i for i in range(5, len(lines)) if lines[i].strip()]
+    if not body:
+        raise MocapFormatError(src, len(lines), "no data rows")
+    check_cells_budget(src, 4, len(body) * width, txt.size, f"{len(body)} rows of {m} markers")
+    data = np.empty((len(body), width), dtype=np.float64)
+    row_lines = [i + 1 for i in body]
+    last = len(body) - 1
+    cut = not txt.ends_with_newline
     short = 0
-    for i in range(5, len(lines)):
+    for r, i in enumerate(body):
         ln = lines[i]
-        if not ln.strip():
-            continue
         cells = ln.split("\t")
         if len(cells) > width:
             extra = cells[width:]
@@ -201,21 +254,18 @@ def read_trc(path: str | Path) -> Markers:
                 raise MocapFormatError(src, i + 1, "a data row needs at least Frame# and Time")
             short += 1
             cells = cells + [""] * (width - len(cells))
-        row = [_number(cells[0], src, i + 1, "Frame#"), _number(cells[1], src, i + 1, "Time")]
-        for j in range(2, width):
-            row.append(_number(cells[j], src, i + 1, f"column {j + 1} ({raw_labels[(j - 2) // 3]} "
-                               f"{'XYZ'[(j - 2) % 3]})"))
-        rows.append(row)
-        row_lines.append(i + 1)
-    if not rows:
-        raise MocapFormatError(src, len(lines), "no data rows")
-    data = np.asarray(rows, dtype=np.float64)
+        row = data[r]
+        for j in range(width):
+            row[j] = _number(cells[j], src, i + 1, field[j])
+        if cut and r == last:
+            _check_cut([lines[k].split("\t") for k in body[max(0, r - 20):r]], ln.split("\t"), src, i + 1,
+                       field, warnings)
     times = data[:, 1]
     _check_times(times, src, row_lines)
     if short:
         warnings.append(f"{short} rows have fewer cells than {width}: the missing cells are read as gaps")
-    if n_frames_decl is not None and n_frames_decl != len(rows):
-        warnings.append(f"NumFrames is {n_frames_decl} but the file has {len(rows)} data rows "
+    if n_frames_decl is not None and n_frames_decl != len(body):
+        warnings.append(f"NumFrames is {n_frames_decl} but the file has {len(body)} data rows "
                         f"(lines {row_lines[0]}-{row_lines[-1]}); the rows are read")
     if len(times) > 2:
         step = float(np.median(np.diff(times)))
@@ -230,7 +280,7 @@ def read_trc(path: str | Path) -> Markers:
     meta.update({"label_fixes": fixes, "warnings": warnings,
                  "first_frame": None if math.isnan(frames[0]) else frames[0]})
     try:
-        return Markers(times, data[:, 2:].reshape(len(rows), m, 3), labels, rate, units=units,
+        return Markers(times, data[:, 2:].reshape(len(body), m, 3), labels, rate, units=units,
                        source=src, meta=meta)
     except InvalidSignalError as exc:
         raise MocapFormatError(src, None, str(exc)) from None
@@ -306,13 +356,17 @@ def _get(pairs: dict, key: str) -> str | None:
     return None
 
 
-def _parse_table(path: str | Path):
+def _parse_table(path: str | Path, txt: _Text | None = None):
     p = Path(path)
     src = str(p)
-    lines, _ = _lines(p, "MOT/STO file")
-    while lines and not lines[-1].strip():
-        lines.pop()
+    if txt is None:
+        txt = _Text(p, "MOT/STO file", 0)
+    lines = txt.lines
     pairs, name, text, h = _parse_header(lines, src)
+    for i in range(h + 1):
+        if len(lines[i]) > MAX_HEADER_LINE:
+            raise MocapFormatError(src, i + 1, f"header line of {len(lines[i]):,} characters (more than "
+                                   f"{MAX_HEADER_LINE:,})")
     head = lines[h]
     tabbed = "\t" in head
     cols = [c.strip() for c in (head.split("\t") if tabbed else head.split())]
@@ -334,18 +388,33 @@ def _parse_table(path: str | Path):
         while len(cells) > len(cols) and not cells[-1]:
             cells.pop()
         if len(cells) != len(cols):
+            cut = (", and the file ends in this line without a newline: it was cut short"
+                   if i == len(lines) - 1 and not txt.ends_with_newline else "")
             raise MocapFormatError(src, i + 1, f"expected {len(cols)} cells like the column header on line "
-                                   f"{h + 1}, found {len(cells)}")
+                                   f"{h + 1}, found {len(cells)}{cut}")
         body.append((i + 1, cells))
     if not body:
         raise MocapFormatError(src, h + 1, "no data rows")
     warnings: list[str] = []
-    nrows = _get(pairs, "nRows") or _get(pairs, "datarows")
-    if nrows is not None and nrows.strip().lstrip("-").isdigit() and int(nrows) != len(body):
-        warnings.append(f"nRows is {nrows} but the file has {len(body)} data rows; the rows are read")
-    ncols = _get(pairs, "nColumns") or _get(pairs, "datacolumns")
-    if ncols is not None and ncols.strip().lstrip("-").isdigit() and int(ncols) != len(cols):
-        warnings.append(f"nColumns is {ncols} but the column header has {len(cols)} columns")
+    if not txt.ends_with_newline:
+        last = body[-1][1]
+        prev = [c for _, c in body[-21:-1]]
+        names = [f"column {j + 1} ({c})" for j, c in enumerate(cols)]
+        if "," in "".join(last):  # orientation cells w,x,y,z: judge the components
+            last = [x for c in last for x in c.split(",")]
+            prev = [[x for c in r for x in c.split(",")] for r in prev]
+            names = [f"column {j + 1} ({c}) {a}" for j, c in enumerate(cols) for a in ("wxyz" if j else "t")]
+        _check_cut(prev, last, src, body[-1][0], names, warnings)
+    for key, alt, found, what in (("nRows", "datarows", len(body), "data rows"),
+                                  ("nColumns", "datacolumns", len(cols), "columns in the column header")):
+        v = _get(pairs, key) or _get(pairs, alt)
+        if v is None:
+            continue
+        n = _count(v)
+        if n is None:
+            warnings.append(f"{key} is {v[:40]!r}, not a count; ignored")
+        elif n != found:
+            warnings.append(f"{key} is {n} but the file has {found} {what}; the rows are read")
     return src, pairs, name, text, cols, body, warnings
 
 
@@ -365,31 +434,31 @@ def _in_degrees(pairs: dict, text: list[str]) -> bool | None:
 
 
 def _rate(pairs: dict) -> float | None:
-    v = _get(pairs, "DataRate")
+    """``DataRate`` when it is a plain number in :data:`RATE_RANGE`, else ``None`` (the time column rules)."""
+    v = (_get(pairs, "DataRate") or "").strip()
     try:
-        r = float(v) if v is not None else None
-    except ValueError:
+        r = parse_number(v, "", None, "DataRate")
+    except MocapFormatError:
         return None
-    return r if r is not None and math.isfinite(r) and r > 0 else None
+    return r if RATE_RANGE[0] <= r <= RATE_RANGE[1] else None
 
 
 def _is_quaternion(pairs: dict) -> bool:
     return (_get(pairs, "DataType") or "").strip().lower() == "quaternion"
 
 
-def read_table(path: str | Path) -> Signal:
+def read_table(path: str | Path, _txt: _Text | None = None) -> Signal:
     """Read a MOT/STO table of numbers (joint angles...) as one ``"vector"`` Signal (module doc)."""
-    src, pairs, name, text, cols, body, warnings = _parse_table(path)
+    src, pairs, name, text, cols, body, warnings = _parse_table(path, _txt)
     if _is_quaternion(pairs):
         raise MocapFormatError(src, None, "DataType=Quaternion: read it with read_orientations")
     values = np.empty((len(body), len(cols)), dtype=np.float64)
     for r, (line, cells) in enumerate(body):
         for j, c in enumerate(cells):
-            v = _number(c, src, line, f"column {j + 1} ({cols[j]})")
-            if math.isnan(v):
+            if c in _TRC_MISSING:
                 raise MocapFormatError(src, line, f"column {j + 1} ({cols[j]}) is empty or NaN (a table "
                                        "signal cannot hold gaps)")
-            values[r, j] = v
+            values[r, j] = parse_number(c, src, line, f"column {j + 1} ({cols[j]})")
     times = values[:, 0]
     _check_times(times, src, [b[0] for b in body])
     deg = _in_degrees(pairs, text)
@@ -406,26 +475,26 @@ def read_table(path: str | Path) -> Signal:
         raise MocapFormatError(src, None, str(exc)) from None
 
 
-def read_orientations(path: str | Path) -> dict[str, Signal]:
+def read_orientations(path: str | Path, _txt: _Text | None = None) -> dict[str, Signal]:
     """Read an OpenSense orientation STO (``DataType=Quaternion``): ``{IMU name: quaternion Signal}``."""
-    src, pairs, name, text, cols, body, warnings = _parse_table(path)
+    src, pairs, name, text, cols, body, warnings = _parse_table(path, _txt)
     if not _is_quaternion(pairs):
         raise MocapFormatError(src, None, "not an orientation file (the header has no DataType=Quaternion)")
     n, k = len(body), len(cols) - 1
     times = np.empty(n)
     q = np.empty((n, k, 4))
     for r, (line, cells) in enumerate(body):
-        times[r] = _number(cells[0], src, line, "time")
+        times[r] = _number(cells[0], src, line, "column 1 (time)")
         for j in range(k):
             parts = cells[j + 1].split(",")
             if len(parts) != 4:
                 raise MocapFormatError(src, line, f"column {j + 2} ({cols[j + 1]}): expected 'w,x,y,z', "
                                        f"got {cells[j + 1][:60]!r}")
             for a in range(4):
-                v = _number(parts[a], src, line, f"column {j + 2} ({cols[j + 1]})")
-                if math.isnan(v):
+                c = parts[a].strip()
+                if c in _TRC_MISSING:
                     raise MocapFormatError(src, line, f"column {j + 2} ({cols[j + 1]}): empty or NaN component")
-                q[r, j, a] = v
+                q[r, j, a] = parse_number(c, src, line, f"column {j + 2} ({cols[j + 1]}) {'wxyz'[a]}")
     _check_times(times, src, [b[0] for b in body])
     if len(set(cols[1:])) != k:
         raise MocapFormatError(src, body[0][0] - 1, "IMU names in the column header are repeated")
@@ -445,21 +514,23 @@ def read_opensim_signals(path: str | Path, *, rate: float | None = None) -> dict
     ``rate`` is accepted for the reader-table signature and ignored (the file has a time column).
     """
     p = Path(path)
-    lines, _ = _lines(p, "MOT/STO file")
-    pairs, _, _, _ = _parse_header(lines, str(p))
+    txt = _Text(p, "MOT/STO file", 0)  # read once: a pipe cannot be read twice
+    pairs, _, _, _ = _parse_header(txt.lines, str(p))
     if _is_quaternion(pairs):
-        return read_orientations(p)
-    sig = read_table(p)
+        return read_orientations(p, txt)
+    sig = read_table(p, txt)
     return {Path(p).stem: sig}
 
 
 def table_kind(path: str | Path) -> str:
     """``"orientations"`` for a ``DataType=Quaternion`` STO, else ``"table"`` (reads the header only)."""
     p = Path(path)
+    if not is_regular(p):  # a pipe would be consumed: read_opensim_signals tells them apart
+        return "table"
     try:
         with open(p, encoding="utf-8", errors="replace") as fh:
             for _ in range(200):
-                ln = fh.readline()
+                ln = fh.readline(MAX_HEADER_LINE)
                 if not ln or ln.strip().lower() == "endheader":
                     break
                 k, _, v = ln.partition("=")

@@ -30,7 +30,13 @@ Layout of the file (tab-separated, one field a cell)::
   agree with them. Empty and repeated names are made unique by
   :func:`mocapkit.markers.make_unique_labels` (``unnamed_6``, ``RASI_2``...), recorded in
   ``meta["label_fixes"]``.
-* A marker whose three coordinates are all exactly 0 (written ``0.000``) is missing: ``NaN``.
+* Missing markers: QTM writes a marker it did not see as ``0.000 0.000 0.000``; a marker whose three
+  coordinates are all exactly 0 is therefore missing (``NaN``), and so is a marker whose three cells
+  are empty (nothing else can be meant). One or two empty coordinates, an empty frame or time cell,
+  and any other spelling (``nan``, ``inf``...) are errors.
+* Numbers follow the strict grammar of :mod:`mocapkit.io.numbers` (no ``0_5``); ``|value| >
+  MAX_ABS`` (1e12) is refused. Errors name the line and the field (``Frame``, ``Time`` or
+  ``<marker> X/Y/Z``).
 * ``times`` come from the ``Time`` column as written (QTM rounds it, e.g. to 1e-5 s); each is checked
   against its frame number: ``t - t_first`` must equal ``(frame - frame_first) / FREQUENCY`` within
   the rounding of the column (at most half a frame period). Frame numbers must be strictly increasing
@@ -47,6 +53,21 @@ column header disagreeing with ``MARKER_NAMES``, times disagreeing with frame nu
 {"declared": ..., "rows": ...}``, and so is a time/frame disagreement
 (``meta["time_mismatch"]``). Text may be UTF-8 (with or without BOM) or, failing that, Latin-1;
 line ends may be LF or CRLF, the final newline may be missing and trailing tabs are ignored.
+
+Damaged and hostile files (all errors, before any large allocation):
+
+* header counts are checked against the file: ``NO_OF_MARKERS`` larger than the file's size (a row
+  needs 3 values a marker) is refused before anything is allocated; ``NO_OF_FRAMES``,
+  ``NO_OF_CAMERAS`` and ``NO_OF_ANALOG`` only size nothing (more than 18 digits is refused);
+  ``FREQUENCY`` must lie in [1e-6, 1e9] Hz; a header line longer than 1 MiB is refused;
+* a file that ends without a newline and whose last line has another number of values than the
+  line before, or whose last value has fewer decimals than the same column on the rows before it (a
+  file cut in the middle of ``-0.124044`` leaves ``-0``), is an error naming the line and field: the
+  file was cut short and its last row cannot be trusted (delete that line to read the rest). When
+  the column's decimals vary so that a cut cannot be told, the row is read with a warning
+  (``meta["warnings"]`` and :class:`~mocapkit.errors.MocapWarning`);
+* a pipe or device is read in bounded chunks and a NUL byte is refused
+  (:mod:`mocapkit.io.textinput`).
 """
 
 from __future__ import annotations
@@ -58,7 +79,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.atomic import read_file_bytes
+from mocapkit.io.numbers import MAX_ABS, parse_number
+from mocapkit.io.textinput import MAX_HEADER_LINE, decode_text, final_line_verdict, read_input, report_final_line
 from mocapkit.markers import Markers, make_unique_labels
 
 __all__ = ["read_qtm_tsv", "read_qtm_tsv_text", "REQUIRED_FIELDS"]
@@ -70,9 +92,12 @@ _KEY_RE = re.compile(r"^[A-Z][A-Z0-9_]*$")
 _INT_FIELDS = ("NO_OF_FRAMES", "NO_OF_CAMERAS", "NO_OF_MARKERS", "NO_OF_ANALOG")
 _FLOAT_FIELDS = ("FREQUENCY", "ANALOG_FREQUENCY")
 _SINGLE_FIELDS = _INT_FIELDS + _FLOAT_FIELDS + ("DATA_INCLUDED",)
-_INT_RE = re.compile(r"^[+]?\d+$")
-_NUM_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
+_INT_RE = re.compile(r"^[+]?\d{1,18}$", re.ASCII)
+_NUM_RE = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$", re.ASCII)
+_NOT_NUMERIC = re.compile(r"[^0-9eE.+\-\t ]")  # a data line holding anything else has a bad value
 _AXES = ("X", "Y", "Z")
+#: Range accepted for FREQUENCY (Hz).
+RATE_RANGE = (1e-6, 1e9)
 
 
 def _short(text: str, limit: int = 40) -> str:
@@ -83,15 +108,8 @@ def read_qtm_tsv(path: str | Path, *, strict: bool = True) -> Markers:
     """Read a QTM 3-D TSV export (see the module docstring for the rules)."""
     p = Path(path)
     src = str(p)
-    data = read_file_bytes(p, "TSV file")
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
-    try:
-        text = data.decode("utf-8")
-        encoding = "utf-8"
-    except UnicodeDecodeError:
-        text = data.decode("latin-1")
-        encoding = "latin-1"
+    data = read_input(p, "TSV file")
+    text, encoding = decode_text(data)
     return _Parser(text, src, strict, encoding).parse()
 
 
@@ -104,9 +122,12 @@ class _Parser:
     def __init__(self, text: str, src: str, strict: bool, encoding: str):
         if text.startswith("\ufeff"):
             text = text[1:]
+        self.size = len(text)
+        self.ends_with_newline = text.endswith(("\n", "\r")) or not text.strip()
         lines = text.split("\n")
         self.lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
         while self.lines and not self.lines[-1].strip():
+            self.ends_with_newline = True  # blank lines after the last row: it is complete
             self.lines.pop()
         self.src = src
         self.strict = strict
@@ -129,23 +150,24 @@ class _Parser:
         i = 0
         while i < len(lines):
             line = lines[i]
-            fields = line.split("\t")
+            fields = line.split("\t", 1) if len(line) > MAX_HEADER_LINE else line.split("\t")
             key = fields[0].strip()
             if not line.strip():
                 raise self.err(i, "empty line in the header")
             if not _KEY_RE.match(key):
                 break
+            if len(line) > MAX_HEADER_LINE:
+                raise self.err(i, f"header line {key} is {len(line):,} characters long (more than "
+                                  f"{MAX_HEADER_LINE:,}): not a QTM export")
             values = [f.strip() for f in fields[1:]]
             if key == "EVENT":
                 vals = [v for v in values if v] if len(values) > 3 else values
                 if len(vals) < 3:
                     raise self.err(i, f"EVENT needs a name, a frame and a time, got {len(vals)} values")
-                try:
-                    ev_frame = int(vals[1])
-                    ev_time = float(vals[2])
-                except ValueError:
-                    raise self.err(i, f"EVENT frame {_short(vals[1])} or time {_short(vals[2])} "
-                                      "is not a number") from None
+                if not _INT_RE.match(vals[1]):
+                    raise self.err(i, f"EVENT frame {_short(vals[1])} is not a frame number")
+                ev_frame = int(vals[1])
+                ev_time = parse_number(vals[2], self.src, i + 1, "EVENT time")
                 events.append({"name": vals[0], "frame": ev_frame, "time": ev_time, "line": i + 1})
             else:
                 if key in header:
@@ -177,15 +199,17 @@ class _Parser:
                     raise self.err(header_lines[key], f"{key} must be a non-negative integer, got {_short(v)}")
                 qtm[key] = int(v)
             elif key in _FLOAT_FIELDS:
-                if not _NUM_RE.match(v) or not math.isfinite(float(v)) or float(v) < 0:
+                if not _NUM_RE.match(v) or not math.isfinite(float(v)) or float(v) < 0 or float(v) > RATE_RANGE[1]:
                     extra = " (an external time base, EXT, is not supported)" if v.upper() == "EXT" else ""
-                    raise self.err(header_lines[key], f"{key} must be a non-negative number, got {_short(v)}{extra}")
+                    raise self.err(header_lines[key], f"{key} must be a non-negative number (at most "
+                                                      f"{RATE_RANGE[1]:g}), got {_short(v)}{extra}")
                 qtm[key] = float(v)
             else:
                 qtm[key] = v
         rate = qtm["FREQUENCY"]
-        if rate <= 0:
-            raise self.err(header_lines["FREQUENCY"], f"FREQUENCY must be > 0, got {header['FREQUENCY'][0]!r}")
+        if not rate >= RATE_RANGE[0]:
+            raise self.err(header_lines["FREQUENCY"], f"FREQUENCY must be > 0 (at least {RATE_RANGE[0]:g} "
+                                                      f"Hz), got {header['FREQUENCY'][0]!r}")
         if "DATA_INCLUDED" in qtm and qtm["DATA_INCLUDED"].upper() != "3D":
             raise self.err(header_lines["DATA_INCLUDED"],
                            f"DATA_INCLUDED is {_short(qtm['DATA_INCLUDED'])}; only 3D exports are supported")
@@ -197,6 +221,10 @@ class _Parser:
                 qtm[key] = vals[0] if len(vals) == 1 else tuple(vals)
         n_markers = qtm["NO_OF_MARKERS"]
         n_declared = qtm["NO_OF_FRAMES"]
+        if 3 * n_markers > self.size:  # checked before anything is sized by it
+            raise self.err(header_lines["NO_OF_MARKERS"],
+                           f"NO_OF_MARKERS is {n_markers} but the whole file ({self.size:,} characters) "
+                           f"cannot hold one row of 3 x {n_markers} values")
 
         meta: dict = {
             "format": "qtm-tsv",
@@ -280,8 +308,14 @@ class _Parser:
         n_rows = len(data_lines)
         if n_rows == 0:
             raise self.err(len(lines) - 1, "no data rows after the column header")
+        k0 = int(has_frame) + int(has_time)
+        field_names = [f"column {k + 1} ({_short(nm)})" for k, nm in enumerate(
+            (["Frame"] if has_frame else []) + (["Time"] if has_time else [])
+            + [f"{names[m] or f'marker {m + 1}'} {ax}" for m in range(n_markers) for ax in _AXES])]
+        last = n_rows - 1
         flat: list[str] = []
         extend = flat.extend
+        empties: list[int] = []  # rows holding an empty cell
         for j, ln in enumerate(data_lines):
             fields = ln.split("\t")
             if len(fields) != ncol:
@@ -290,22 +324,49 @@ class _Parser:
                 if len(fields) != ncol:
                     if not ln.strip():
                         raise self.err(first_data + j, "empty line inside the data")
-                    raise self.err(first_data + j, f"expected {ncol} tab-separated values, found {len(fields)}")
+                    cut = (" (the file ends without a newline in this line: it was cut short)"
+                           if j == last and not self.ends_with_newline else "")
+                    raise self.err(first_data + j, f"expected {ncol} tab-separated values, found "
+                                                   f"{len(fields)}{cut}")
+            if _NOT_NUMERIC.search(ln):
+                self._locate_bad_value(ln, first_data + j, ncol, field_names)
+            if "" in fields or any(not f.strip() for f in fields):
+                empties.append(j)
+                fields = [f if f.strip() else "nan" for f in fields]
             extend(fields)
+        if not self.ends_with_newline:
+            prev = [ln.split("\t") for ln in data_lines[max(0, last - 20):last]]
+            cells = data_lines[last].split("\t")
+            verdict, c = final_line_verdict(prev, cells)
+            report_final_line(self.src, first_data + last + 1, verdict, c,
+                              field_names[c] if c is not None and c < ncol else "the last value",
+                              cells[c] if c is not None else "", meta.setdefault("warnings", []))
         try:
             values = np.array(flat, dtype=np.float64)
-            bad = any("_" in ln for ln in data_lines)  # float() accepts '1_000'; QTM never writes it
         except ValueError:
-            values = None
-            bad = True
-        if bad:
-            self._locate_bad_value(data_lines, first_data, ncol, col_fields if first_data > end_header else None,
-                                   has_frame, has_time)
+            for j, ln in enumerate(data_lines):
+                self._locate_bad_value(ln, first_data + j, ncol, field_names)
+            raise self.err(None, "a value is not a number") from None  # pragma: no cover
+        del flat
         values = values.reshape(n_rows, ncol)
-        if not np.isfinite(values).all():
-            r, c = (int(v) for v in np.argwhere(~np.isfinite(values))[0])
-            raise self.err(first_data + r, f"column {c + 1}: {_short(data_lines[r].split(chr(9))[c].strip())} "
-                                           "is not a finite number")
+        for j in empties:
+            row = values[j]
+            gap = np.isnan(row)
+            if gap[:k0].any():
+                raise self.err(first_data + j, f"{field_names[int(np.flatnonzero(gap[:k0])[0])]}: empty value is not a number")
+            trip = gap[k0:].reshape(n_markers, 3)
+            partial = np.flatnonzero(trip.any(axis=1) & ~trip.all(axis=1))
+            if partial.size:
+                m = int(partial[0])
+                a = int(np.flatnonzero(trip[m])[0])
+                raise self.err(first_data + j, f"{field_names[k0 + 3 * m + a]}: empty value is not a number "
+                                               "(a missing marker has all three cells empty)")
+        big = ~(np.abs(values) <= MAX_ABS)
+        big &= ~np.isnan(values)  # the empty triples checked above
+        if big.any():
+            r, c = (int(v) for v in np.argwhere(big)[0])
+            raise self.err(first_data + r, f"{field_names[c]}: {_short(data_lines[r].split(chr(9))[c].strip())} "
+                                           f"is out of range (|value| > {MAX_ABS:g})")
 
         if n_rows != n_declared:
             problem = (f"NO_OF_FRAMES is {n_declared} but the file has {n_rows} data rows "
@@ -375,13 +436,9 @@ class _Parser:
             raise self.err(first_data + r, problem + "; use strict=False to accept the Time column")
         meta["time_mismatch"] = {"line": first_data + r + 1, "max_deviation_s": worst, "first": problem}
 
-    def _locate_bad_value(self, data_lines: list[str], first_data: int, ncol: int,
-                          col_names: list[str] | None, has_frame: bool, has_time: bool) -> None:
-        for j, ln in enumerate(data_lines):
-            for k, cell in enumerate(ln.split("\t")[:ncol]):
-                s = cell.strip()
-                if not _NUM_RE.match(s):
-                    what = (col_names[k].strip() if col_names is not None and k < len(col_names) else "")
-                    where = f"column {k + 1}" + (f" ({_short(what)})" if what else "")
-                    raise self.err(first_data + j, f"{where}: {_short(s) if s else 'empty value'} is not a number")
-        raise self.err(None, "a value is not a number")  # pragma: no cover - the loop finds it
+    def _locate_bad_value(self, line: str, idx: int, ncol: int, field_names: list[str]) -> None:
+        """Raise naming the first cell of ``line`` (0-based line ``idx``) that is not a number."""
+        for k, cell in enumerate(line.split("\t")[:ncol]):
+            s = cell.strip()
+            if s and not _NUM_RE.match(s):
+                raise self.err(idx, f"{field_names[k]}: {_short(s)} is not a number")

@@ -7,13 +7,19 @@ column holding a date is data; at most :data:`MAX_HEAD_LINES` lines are buffered
 line is numeric, the rows are headerless ``time,w,x,y,z`` (seconds).
 Counters become times with the first counter step (a file reader uses the most frequent step).
 Blank lines are skipped, and so are the frames in which an OptiTrack rigid body is lost (empty
-cells; the file reader counts them in ``meta["warnings"]``). Every problem raises
-:class:`~mocapkit.errors.MocapFormatError` with the line number, after the samples before it have
-been yielded (so a live consumer has already used them).
+cells; the file reader counts them in ``meta["warnings"]``). Every row follows the file reader's
+rules (:mod:`mocapkit.io.imu_rows`: strict finite numbers, time steps of at least 1 ns), so no
+``nan``/``inf`` or out-of-range sample is ever yielded. Lines are read with a bounded ``readline``
+(at most 1 MiB: ``/dev/zero`` or a pipe without line ends fails at once), a NUL byte or
+undecodable bytes are errors, and a last line without a line end (after lines with one) is checked
+for a number cut short. Memory stays constant: only the last 20 rows' text is kept.
+Every problem raises :class:`~mocapkit.errors.MocapFormatError` with the line number, after the
+samples before it have been yielded (so a live consumer has already used them).
 """
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Iterable, Iterator
 
 from mocapkit.errors import MocapFormatError
@@ -28,7 +34,8 @@ from mocapkit.io.imu_columns import (
     split_fields,
 )
 from mocapkit.io.imu_layout import Layout, find_layout
-from mocapkit.io.imu_rows import RowReader
+from mocapkit.io.imu_lines import MAX_LINE_BYTES, check_line
+from mocapkit.io.imu_rows import CUT_CONTEXT, RowReader
 
 __all__ = ["MAX_HEAD_LINES", "iter_samples"]
 
@@ -69,12 +76,43 @@ def _headerless(line: str, delim: str | None, source: str, lineno: int, rate: fl
                   [Orientation("quaternion", (1, 2, 3, 4), ("w", "x", "y", "z"))], None)
 
 
+def _bounded(lines: Iterable[str], source: str) -> Iterator[str]:
+    """The lines of ``lines``; a file object is read with ``readline(limit)`` so that no line (e.g. from
+    ``/dev/zero`` or a pipe without line ends) is read beyond :data:`~mocapkit.io.imu_lines.MAX_LINE_BYTES`."""
+    readline = getattr(lines, "readline", None)
+    if readline is None:
+        yield from lines
+        return
+    n = 0
+    while True:
+        try:
+            line = readline(MAX_LINE_BYTES + 1)
+        except UnicodeDecodeError as exc:
+            raise MocapFormatError(source, n + 1, f"not UTF-8 text ({exc.reason})") from None
+        except OSError as exc:
+            raise MocapFormatError(source, n + 1, f"cannot read: {exc.strerror or exc}") from None
+        if not line:
+            return
+        n += 1
+        yield line
+
+
+def _not_utf8(line: str) -> bool:
+    """Undecodable bytes read with ``surrogateescape`` (stdin in a POSIX locale) show as lone surrogates."""
+    try:
+        line.encode("utf-8")
+    except UnicodeEncodeError:
+        return True
+    return False
+
+
 def iter_samples(
     lines: Iterable[str], source: str = "<stdin>", rate: float | None = None, *,
     options: ColumnOptions | None = None, **columns,
 ) -> Iterator[tuple[int, float, tuple[float, float, float, float]]]:
     """Yield ``(line_number, time_s, (w, x, y, z))`` for each data row of a CSV stream.
 
+    ``lines``: a text file object (read with a bounded ``readline``) or any iterable of lines.
     ``columns``: ``time_column``, ``quaternion_columns``, ``scalar_last``, ``time_unit`` (or one
     :class:`~mocapkit.io.imu_columns.ColumnOptions` as ``options``).
     """
@@ -85,10 +123,18 @@ def iter_samples(
     seen_text = False
     header_seen = False
     n_text = 0      # non-blank lines buffered
-    for lineno, raw in enumerate(lines, start=1):
+    ended = False   # a line with a line end was seen (then one without is the input's last, maybe cut)
+    tail: deque[str] = deque(maxlen=CUT_CONTEXT)
+    for lineno, raw in enumerate(_bounded(lines, source), start=1):
+        has_end = raw.endswith("\n")
         line = raw.rstrip("\r\n")
+        check_line(line, source, lineno)
+        if not line.isascii() and _not_utf8(line):
+            raise MocapFormatError(source, lineno, "not UTF-8 text (undecodable bytes)")
         if lineno == 1:
             line = line.lstrip("\ufeff")
+        cut_check = ended and not has_end
+        ended = ended or has_end
         if reader is None:
             head.append(line)
             if not line.strip():
@@ -115,11 +161,18 @@ def iter_samples(
             reader = RowReader(lay, source, online=True)
             for k in range(lay.data_index, len(head)):
                 if head[k].strip():
+                    if cut_check and k == len(head) - 1:
+                        reader.check_cut_line([reader.split(x) for x in tail], head[k], k + 1)
                     yield from _emit(reader, head[k], k + 1)
+                    tail.append(head[k])
+            head = []
             continue
         if not line.strip():
             continue
+        if cut_check:
+            reader.check_cut_line([reader.split(x) for x in tail], line, lineno)
         yield from _emit(reader, line, lineno)
+        tail.append(line)
     if reader is None:
         end = len(head)
         while end > 0 and not head[end - 1].strip():

@@ -22,6 +22,16 @@ those of the first X column (``mm`` when the units line is empty, recorded as ``
 The ``Devices`` block, when present, becomes ``analog``: labels ``"<device> <component>"``,
 ``values`` ``(frames x sub-frames, K)`` with ``NaN`` for empty cells, ``rate`` from its own rate
 line. Other blocks are listed in ``meta["blocks"]`` and not read.
+
+Numbers follow the strict grammar of :mod:`mocapkit.io.numbers` (no ``0_5``, ``nan`` or ``inf``);
+``|value| > MAX_ABS`` (1e12) is refused naming the line and column; the only missing value is an
+empty cell (Nexus's gap). The rate must lie in [1e-6, 1e9] Hz. A file that ends without a newline and
+whose last line has another number of cells than the line before, or whose last value is empty or
+has fewer decimals than the same column on the rows before it (cut in the middle of a number), is
+an error naming the line: the file was cut short. Nexus writes 6 significant digits, so the decimals
+of a column vary and a cut inside the last value often cannot be told: then the row is read with a
+warning (``meta["warnings"]`` and :class:`~mocapkit.errors.MocapWarning`). Rows that, padded with gaps, would need far more values than the file holds are refused
+before allocation; pipes and devices are read in bounded chunks (:mod:`mocapkit.io.textinput`).
 """
 
 from __future__ import annotations
@@ -33,7 +43,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.atomic import read_text_lines
+from mocapkit.io.numbers import NUMBER_RE, parse_number
+from mocapkit.io.textinput import check_cells_budget, final_line_verdict, read_text, report_final_line
+
+#: Range accepted for a block's rate (Hz).
+RATE_RANGE = (1e-6, 1e9)
 
 if TYPE_CHECKING:
     from mocapkit.markers import Markers
@@ -98,18 +112,24 @@ def _split_blocks(lines: list[str], src: str) -> tuple[list[_Block], str]:
     return blocks, delim
 
 
-def _parse_block(b: _Block, src: str):
-    """``(rate, names per column, components, units, frames, subframes, values (R, C), lines)``."""
+def _parse_block(b: _Block, src: str, cut_line: int | None = None, file_bytes: int = 0,
+                 warnings: list[str] | None = None):
+    """``(rate, names per column, components, units, frames, subframes, values (R, C), lines)``.
+
+    ``cut_line``: the file's last line when it ends without a newline (checked for a cut-short row;
+    a doubt goes to ``warnings``).
+    """
+    warnings = [] if warnings is None else warnings
     if len(b.lines) < 4:
         raise MocapFormatError(src, b.start + 1, f"the {b.name} block needs a rate, names, components and "
                                "units line before its data")
     (ln_r, rate_c), (ln_n, names), (ln_c, comps), (ln_u, units) = b.lines[:4]
-    try:
-        rate = float(rate_c[0])
-    except ValueError:
-        raise MocapFormatError(src, ln_r, f"{b.name}: the rate {rate_c[0][:30]!r} is not a number") from None
-    if not (math.isfinite(rate) and rate > 0):
-        raise MocapFormatError(src, ln_r, f"{b.name}: the rate must be > 0, got {rate_c[0]!r}")
+    if not NUMBER_RE.fullmatch(rate_c[0]):
+        raise MocapFormatError(src, ln_r, f"{b.name}: the rate {rate_c[0][:30]!r} is not a number")
+    rate = float(rate_c[0])
+    if not (math.isfinite(rate) and RATE_RANGE[0] <= rate <= RATE_RANGE[1]):
+        raise MocapFormatError(src, ln_r, f"{b.name}: the rate must be > 0 (between {RATE_RANGE[0]:g} and "
+                               f"{RATE_RANGE[1]:g} Hz), got {rate_c[0]!r}")
     while comps and not comps[-1]:
         comps.pop()
     if len(comps) < 3 or comps[0].lower() != "frame" or comps[1].lower() != "sub frame":
@@ -132,13 +152,20 @@ def _parse_block(b: _Block, src: str):
     rows = b.lines[4:]
     if not rows:
         raise MocapFormatError(src, ln_u, f"{b.name}: no data rows")
+    check_cells_budget(src, ln_c, len(rows) * width, file_bytes, f"{b.name}: {len(rows)} rows of {width} columns")
     vals = np.empty((len(rows), width), dtype=np.float64)
+    field = [f"{b.name}: column {j + 1} ({(col_names[j - 2] + ' ') if j >= 2 and col_names[j - 2] else ''}"
+             f"{comps[j]})" for j in range(width)]
     for r, (line, cells) in enumerate(rows):
         if len(cells) > width:
             if any(cells[width:]):
                 raise MocapFormatError(src, line, f"{b.name}: expected {width} cells like the components line "
                                        f"{ln_c}, found {len(cells)}")
             cells = cells[:width]
+        if line == cut_line:
+            verdict, j = final_line_verdict([c for _, c in rows[max(0, r - 20):r]], cells)
+            report_final_line(src, line, verdict, j, field[j] if j is not None and j < width else "the last value",
+                              cells[j] if j is not None else "", warnings)
         for j in range(width):
             c = cells[j] if j < len(cells) else ""
             if not c:
@@ -146,14 +173,7 @@ def _parse_block(b: _Block, src: str):
                     raise MocapFormatError(src, line, f"{b.name}: the {comps[j]} cell is empty")
                 vals[r, j] = math.nan
                 continue
-            try:
-                v = float(c)
-            except ValueError:
-                raise MocapFormatError(src, line, f"{b.name}: column {j + 1} ({comps[j]}): {c[:40]!r} is not "
-                                       "a number") from None
-            if math.isinf(v):
-                raise MocapFormatError(src, line, f"{b.name}: column {j + 1} ({comps[j]}) is infinite")
-            vals[r, j] = v
+            vals[r, j] = parse_number(c, src, line, field[j])
     return rate, col_names, comps[2:], unit_cells, vals, [ln for ln, _ in rows]
 
 
@@ -163,7 +183,11 @@ def read_vicon_csv(path: str | Path) -> Markers:
 
     p = Path(path)
     src = str(p)
-    lines, enc = read_text_lines(p, "CSV file")
+    lines, ends_with_newline, enc, size = read_text(p, "CSV file")
+    while lines and not lines[-1].strip():
+        lines.pop()
+        ends_with_newline = True
+    cut_line = None if ends_with_newline else len(lines)
     blocks, delim = _split_blocks(lines, src)
     if not blocks or blocks[0].name not in ("Trajectories", "Devices"):
         raise MocapFormatError(src, 1, "not a Vicon Nexus CSV export (the first line must be 'Trajectories' "
@@ -177,7 +201,8 @@ def read_vicon_csv(path: str | Path) -> Markers:
     if traj is None:
         raise MocapFormatError(src, None, "no Trajectories block (only "
                                + ", ".join(b.name for b in blocks) + "): no marker positions to read")
-    rate, col_names, comps, units, vals, row_lines = _parse_block(traj, src)
+    read_warnings: list[str] = []
+    rate, col_names, comps, units, vals, row_lines = _parse_block(traj, src, cut_line, size, read_warnings)
     (ln_n, _), (ln_c, _) = traj.lines[1], traj.lines[2]
     if len(comps) % 3:
         raise MocapFormatError(src, ln_c, f"Trajectories: {len(comps)} value columns is not a multiple of 3 "
@@ -210,7 +235,7 @@ def read_vicon_csv(path: str | Path) -> Markers:
     labels, fixes = make_unique_labels(raw_labels, m)
     unit = units[0] if units and units[0] else ""
     meta: dict = {"format": "vicon-csv", "encoding": enc, "delimiter": delim, "label_fixes": fixes,
-                  "first_frame": int(frames[0]), "blocks": [b.name for b in blocks], "warnings": []}
+                  "first_frame": int(frames[0]), "blocks": [b.name for b in blocks], "warnings": read_warnings}
     if not unit:
         unit = "mm"
         meta["units_assumed"] = True
@@ -228,7 +253,7 @@ def read_vicon_csv(path: str | Path) -> Markers:
     analog = None
     dev = by_name.get("Devices")
     if dev is not None:
-        d_rate, d_names, d_comps, d_units, d_vals, d_lines = _parse_block(dev, src)
+        d_rate, d_names, d_comps, d_units, d_vals, d_lines = _parse_block(dev, src, cut_line, size, read_warnings)
         d_labels, d_fixes = make_unique_labels([f"{nm} {c}".strip() for nm, c in zip(d_names, d_comps)],
                                                len(d_comps), prefix="analog")
         meta["analog_label_fixes"] = d_fixes

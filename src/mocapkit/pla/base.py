@@ -22,9 +22,29 @@ METHODS: dict[str, tuple[object, bool, str]] = {
     "anglesw": (anglesw, True, "max angle in degrees between each sample and the SLERP decode"),
 }
 POS_METHODS = frozenset(m for m, (_, pos, _) in METHODS.items() if pos)
-#: anglesw checks every buffered sample per new sample: without a cap a still sensor would make its
-#: work per sample (and a stream's memory) grow without bound. 1000 is the paper's cap.
-BOUNDED_BY_DEFAULT = {"anglesw": 1000}
+#: SW and anglesw check every buffered sample per new sample: without a cap a still sensor (constant
+#: input: one endless segment) would make their work per sample, and a stream's memory, grow without
+#: bound. 1000 is the cap of the fastSW paper's experiments. The other methods do O(1) work per sample
+#: and stay unbounded unless asked. Batch and streaming apply the same default, so they agree.
+BOUNDED_BY_DEFAULT = {"sw": 1000, "anglesw": 1000}
+#: largest accepted ``max_segment_length`` (the compiled kernels count in int64; a stream's buffer
+#: grows only as far as the segments do)
+MAX_SEGMENT_LENGTH_LIMIT = 10**9
+
+
+#: smallest time step the kernels compute with: slopes (value difference / step) and squared time
+#: offsets stay far from float64 overflow and underflow (a step of 1e-300 s made the CPLR and Swing
+#: kernels divide by an underflowed zero); readers refuse steps far larger (below 1e-9 s)
+MIN_TIME_STEP = 1e-100
+
+
+def _check_steps(t: np.ndarray) -> None:
+    if t.shape[0] > 1:
+        dt = np.diff(t)
+        k = int(np.argmin(dt))
+        if not dt[k] >= MIN_TIME_STEP:
+            raise InvalidSignalError(f"sample {k + 1}: time step {float(dt[k])!r} s after {float(t[k])!r} s is below "
+                                     f"{MIN_TIME_STEP:g} s (slopes and squared times would overflow/underflow)")
 
 
 def check_method(method: str) -> str:
@@ -37,8 +57,12 @@ def check_method(method: str) -> str:
 def _check_params(method: str, threshold: float, max_segment_length: int | None, kind: str) -> int:
     if not (isinstance(threshold, (int, float)) and math.isfinite(threshold) and threshold >= 0):
         raise InvalidParameterError(f"threshold must be a finite number >= 0, got {threshold!r}")
-    if max_segment_length is not None and int(max_segment_length) < 1:
-        raise InvalidParameterError(f"max segment length must be >= 1, got {max_segment_length!r}")
+    if max_segment_length is not None and not (
+        isinstance(max_segment_length, (int, np.integer)) and not isinstance(max_segment_length, bool)
+        and 1 <= max_segment_length <= MAX_SEGMENT_LENGTH_LIMIT
+    ):
+        raise InvalidParameterError(
+            f"max segment length must be an integer in 1..{MAX_SEGMENT_LENGTH_LIMIT}, got {max_segment_length!r}")
     if method == "anglesw" and kind != "quaternion":
         raise InvalidParameterError("method 'anglesw' works on quaternion signals only")
     if max_segment_length is None and method in BOUNDED_BY_DEFAULT:
@@ -107,12 +131,14 @@ def compress(
         The method's own error bound: SSR per segment (fastSW, SW, CPLR), ε per sample and
         dimension (Swing Filter), degrees (anglesw).
     max_segment_length
-        Maximum number of sample intervals between consecutive segment points (``None``: unbounded).
+        Maximum number of sample intervals between consecutive segment points (``None``: 1000 for
+        SW and anglesw, see :data:`BOUNDED_BY_DEFAULT`; unbounded for the others).
     """
     method = check_method(method)
     maxlen = _check_params(method, threshold, max_segment_length, signal.kind)
     X = prepared_values(signal) if _prepared is None else _prepared
     t = signal.times
+    _check_steps(t)
     th = float(threshold)
     if method == "fastsw":
         idx = fastsw.batch(t, X, th, maxlen)
@@ -129,7 +155,7 @@ def compress(
     return Compressed(
         method=method,
         threshold=th,
-        max_segment_length=max_segment_length,
+        max_segment_length=maxlen or None,  # the length applied (a method's default included)
         kind=signal.kind,
         n_samples=len(signal),
         indices=idx,
@@ -149,9 +175,11 @@ class Point(NamedTuple):
 class Encoder:
     """Streaming PLA encoder: ``push(t, x)`` returns the points it has decided, ``flush()`` the last.
 
-    Memory is O(1) for fastSW, CPLR and the Swing Filter; SW and anglesw buffer the samples of the
-    current segment (at most ``max_segment_length``). The points equal those of :func:`compress`
-    on the same samples, bit for bit (both run the same compiled ``start``/``step``/``flush``).
+    Work per sample and memory are O(1) for fastSW, CPLR and the Swing Filter; SW and anglesw buffer
+    the samples of the current segment and check them all per new sample, so both are bounded by
+    ``max_segment_length`` (default 1000 for them, :data:`BOUNDED_BY_DEFAULT`: a constant input
+    cannot slow a stream down). The points equal those of :func:`compress` on the same samples, bit
+    for bit (both run the same compiled ``start``/``step``/``flush`` with the same default).
 
     Parameters are those of :func:`compress`, plus ``dim`` and ``kind`` of the incoming samples.
     """
@@ -176,10 +204,11 @@ class Encoder:
         self._mod = mod
         self._pos = self.method in POS_METHODS
         self._buffered = self.method in ("sw", "anglesw")
+        cap = min(self._maxlen + 1, 256) if self._maxlen else 256  # grows with the segment (_grow)
         if self.method == "sw":
-            self._state = list(sw.new_state(self.dim, self._maxlen + 1 if self._maxlen else 256))
+            self._state = list(sw.new_state(self.dim, cap))
         elif self.method == "anglesw":
-            self._state = list(anglesw.new_state(self._maxlen + 1 if self._maxlen else 256))
+            self._state = list(anglesw.new_state(cap))
         else:
             self._state = list(mod.new_state(self.dim))
         self._x = np.empty(self.dim)
@@ -210,6 +239,9 @@ class Encoder:
             raise InvalidSignalError(f"sample {self._n}: NaN or infinite value")
         if self._n and not math.isfinite((t - self._first_t) ** 2):
             raise InvalidSignalError(f"sample {self._n}: time {t!r} is too far from the first sample to compute with")
+        if self._n and t > self._last_t and t - self._last_t < MIN_TIME_STEP:
+            raise InvalidSignalError(f"sample {self._n}: time step {t - self._last_t!r} s after {self._last_t!r} s is "
+                                     f"below {MIN_TIME_STEP:g} s (slopes and squared times would overflow/underflow)")
         if t <= self._last_t:
             what = "duplicate" if t == self._last_t else "earlier"
             raise InvalidSignalError(

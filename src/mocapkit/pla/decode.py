@@ -5,7 +5,24 @@ from __future__ import annotations
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError
-from mocapkit.quat import normalize, slerp
+from mocapkit.quat import slerp
+
+
+def unit_quaternions(q: np.ndarray) -> np.ndarray:
+    """``q / |q|`` row by row without overflow or underflow: each row is first divided by its largest
+    magnitude, so ``1e300`` or ``1e-200`` components normalise exactly like ``1``. A zero row, or one
+    that is not finite, is an :class:`InvalidParameterError` naming the row (a decoder never writes
+    a zero-norm or NaN quaternion)."""
+    q = np.asarray(q, dtype=np.float64)
+    if not np.all(np.isfinite(q)):
+        k = int(np.flatnonzero(~np.isfinite(q).all(axis=-1))[0])
+        raise InvalidParameterError(f"segment point {k}: {q[k].tolist()!r} is not finite")
+    scale = np.abs(q).max(axis=-1, keepdims=True)
+    if np.any(scale == 0.0):
+        k = int(np.flatnonzero(scale[..., 0] == 0.0)[0])
+        raise InvalidParameterError(f"segment point {k}: zero-norm quaternion {q[k].tolist()!r}")
+    u = q / scale
+    return u / np.sqrt(np.einsum("...i,...i->...", u, u))[..., None]
 
 
 def reconstruct_points(
@@ -20,23 +37,35 @@ def reconstruct_points(
     pt = np.asarray(point_times, dtype=np.float64)
     pv = np.asarray(point_values, dtype=np.float64)
     t = np.asarray(times, dtype=np.float64)
-    if pt.ndim != 1 or pv.shape[0] != pt.shape[0] or pt.shape[0] == 0:
+    if pt.ndim != 1 or pv.ndim != 2 or pv.shape[0] != pt.shape[0] or pt.shape[0] == 0:
         raise InvalidParameterError("segment points need matching (M,) times and (M, D) values, M >= 1")
+    if kind == "quaternion" and pv.shape[1] != 4:
+        raise InvalidParameterError(f"quaternion segment points have 4 values, got {pv.shape[1]}")
+    if not (np.all(np.isfinite(pt)) and np.all(np.isfinite(t))):
+        raise InvalidParameterError("segment point times and decode times must be finite")
     if np.any(np.diff(pt) <= 0):
-        raise InvalidParameterError("segment point times must be strictly increasing")
+        k = int(np.flatnonzero(np.diff(pt) <= 0)[0]) + 1
+        raise InvalidParameterError(f"segment point times must be strictly increasing: point {k} at "
+                                    f"{float(pt[k])!r} s is not after {float(pt[k - 1])!r} s")
+    if kind == "quaternion":
+        pv = unit_quaternions(pv)  # also refuses NaN/inf and zero-norm points
+    elif not np.all(np.isfinite(pv)):
+        raise InvalidParameterError("segment point values must be finite")
     if t.size and (t.min() < pt[0] or t.max() > pt[-1]):
         raise InvalidParameterError(
             f"requested times [{float(t.min())!r}, {float(t.max())!r}] s reach outside the segment points' "
             f"span [{float(pt[0])!r}, {float(pt[-1])!r}] s"
         )
     if pt.shape[0] == 1:
-        v = normalize(pv) if kind == "quaternion" else pv
-        return np.repeat(v, t.shape[0], axis=0)
+        return np.repeat(pv, t.shape[0], axis=0)
     k = np.clip(np.searchsorted(pt, t, side="right") - 1, 0, pt.shape[0] - 2)
     f = (t - pt[k]) / (pt[k + 1] - pt[k])
-    if kind == "quaternion":
-        return slerp(pv[k], pv[k + 1], f)
-    return pv[k] + f[:, None] * (pv[k + 1] - pv[k])
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is reported just below
+        out = slerp(pv[k], pv[k + 1], f) if kind == "quaternion" else pv[k] + f[:, None] * (pv[k + 1] - pv[k])
+    if not np.all(np.isfinite(out)):  # e.g. vector points so far apart that their difference overflows
+        i = int(np.flatnonzero(~np.isfinite(out).all(axis=-1))[0])
+        raise InvalidParameterError(f"the decoded value at {float(t[i])!r} s is not finite (points out of range)")
+    return out
 
 
 def reconstruct(compressed, times: np.ndarray | None = None) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 
 from mocapkit.errors import InvalidParameterError
 from mocapkit.motion import Signal
-from mocapkit.pla.base import Compressed, prepared_values
+from mocapkit.pla.base import MAX_SEGMENT_LENGTH_LIMIT, Compressed, prepared_values
 from mocapkit.quat import _angle_between, _slerp_unit
 
 DEFAULT_MAX_SEGMENT_LENGTH = 200
@@ -61,8 +61,9 @@ def optimal_max_angle(signal: Signal, max_angle_deg: float, max_segment_length: 
     if signal.kind != "quaternion":
         raise InvalidParameterError("the offline optimum works on quaternion signals only")
     L = DEFAULT_MAX_SEGMENT_LENGTH if max_segment_length is None else int(max_segment_length)
-    if L < 1:
-        raise InvalidParameterError(f"max segment length must be >= 1, got {max_segment_length!r}")
+    if not 1 <= L <= MAX_SEGMENT_LENGTH_LIMIT:
+        raise InvalidParameterError(
+            f"max segment length must be an integer in 1..{MAX_SEGMENT_LENGTH_LIMIT}, got {max_segment_length!r}")
     X = prepared_values(signal)
     Q = X / np.linalg.norm(X, axis=1, keepdims=True)
     idx = _optimal_indices(signal.times, Q, math.radians(max_angle_deg), L)

@@ -22,10 +22,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mocapkit.errors import BoundViolationError, InvalidParameterError
+from mocapkit.errors import BoundViolationError, InvalidParameterError, UnreachableTargetError
 from mocapkit.motion import Signal
 from mocapkit.pla.base import Compressed, check_method, compress
-from mocapkit.pla.decode import reconstruct
+from mocapkit.pla.decode import reconstruct, reconstruct_points, unit_quaternions
+from mocapkit.quat import slerp
 from mocapkit.skeleton import Motion, forward_kinematics
 
 BOUND_TOL = 1e-9  # relative slack when checking the position bound (float rounding of two FK runs)
@@ -68,11 +69,37 @@ class SkeletalCompressed:
         m = self.motion
         rot = m.rotations.copy()
         trans = m.translations.copy()
-        for j, c in self.rotations.items():
-            rot[:, j] = reconstruct(c, m.times)
-        for j, c in self.translations.items():
-            trans[:, j] = reconstruct(c, m.times)
+        _decode_tracks(self.rotations, m.times, rot)
+        _decode_tracks(self.translations, m.times, trans)
         return Motion(m.skeleton, m.times, rot, trans, channel_values=None, source=m.source, meta=dict(m.meta))
+
+
+def _decode_tracks(tracks: dict[int, Compressed], times: np.ndarray, out: np.ndarray) -> None:
+    """``out[:, j] = reconstruct(tracks[j], times)`` for every track; tracks with the same keyframe
+    times are decoded in one batch (the same SLERP / linear formula over a joint axis), so the Python
+    work per call is per distinct keyframe-time set, not per joint (10,000-joint chains)."""
+    groups: dict[tuple, list[int]] = {}
+    for j, c in tracks.items():
+        groups.setdefault((c.kind, c.times.shape[0], c.times.tobytes()), []).append(j)
+    for (kind, _, _), js in groups.items():
+        if len(js) == 1:
+            out[:, js[0]] = reconstruct(tracks[js[0]], times)
+            continue
+        pt = tracks[js[0]].times
+        pv = np.stack([tracks[j].values for j in js], axis=1)  # (M, T, D)
+        M, T, D = pv.shape
+        if kind != "quaternion":
+            out[:, js] = reconstruct_points(pt, pv.reshape(M, T * D), times, kind).reshape(-1, T, D)
+            continue
+        pv = unit_quaternions(pv.reshape(M * T, D)).reshape(M, T, D)  # also refuses NaN and zero norms
+        # one check of the span and order, as reconstruct_points does, on the shared times
+        reconstruct_points(pt, pv[:, 0], np.array([times.min(), times.max()]), kind)
+        if M == 1:
+            out[:, js] = pv[0][None]
+            continue
+        k = np.clip(np.searchsorted(pt, times, side="right") - 1, 0, M - 2)
+        f = (times - pt[k]) / (pt[k + 1] - pt[k])
+        out[:, js] = slerp(pv[k], pv[k + 1], f[:, None])
 
 
 def animated_tracks(motion: Motion) -> tuple[list[int], list[int]]:
@@ -90,36 +117,64 @@ def position_errors(original: Motion, decoded: Motion) -> np.ndarray:
     return np.linalg.norm(P1 - P0, axis=-1)
 
 
+REACH_EXACT_BUDGET = 20_000_000  # joint-pair distances computed exactly at most (else a safe upper bound)
+
+
 def _reach(motion: Motion) -> np.ndarray:
-    """Per joint, the largest distance (over frames) to any descendant joint or end site."""
+    """Per joint, the largest distance (over frames) to any descendant joint or end site.
+
+    Exact (every descendant's distance, one NumPy batch per joint over its subtree, a contiguous run
+    of the depth-first order) while the number of joint-descendant pairs times frames stays within
+    :data:`REACH_EXACT_BUDGET`; beyond (deep chains of thousands of joints) the triangle-inequality
+    bound ``reach_i <= max_c (max_t |p_c - p_i| + reach_c)`` over children ``c`` and end sites, computed
+    leaves first in one pass. A larger reach only gives a joint a smaller angle budget, so the
+    position guarantee holds either way. No recursion: any depth works."""
     sk = motion.skeleton
     P, _, E = forward_kinematics(motion, end_sites=True)
-    reach = np.zeros(sk.n_joints)
-    for k in range(sk.n_joints):
-        i = sk.parents[k]
-        while i >= 0:
-            reach[i] = max(reach[i], float(np.linalg.norm(P[:, k] - P[:, i], axis=-1).max()))
-            i = sk.parents[i]
+    J, N = sk.n_joints, motion.n_frames
+    parents = sk.parents.tolist()
+    reach = np.zeros(J)
+    order = sk.depth_first()
+    size = np.ones(J, dtype=np.int64)
+    for j in reversed(order):
+        if parents[j] >= 0:
+            size[parents[j]] += size[j]
+    if int(size.sum() - J) * N <= REACH_EXACT_BUDGET:
+        pos = np.empty(J, dtype=np.int64)
+        pos[order] = np.arange(J)
+        order_arr = np.asarray(order, dtype=np.int64)
+        ends = sorted(range(len(sk.end_sites)), key=lambda e: pos[sk.end_sites[e][0]])
+        end_pos = np.array([pos[sk.end_sites[e][0]] for e in ends], dtype=np.int64)
+        ends = np.asarray(ends, dtype=np.int64)
+        for j in range(J):
+            a, b = int(pos[j]), int(pos[j] + size[j])
+            r = 0.0
+            if b - a > 1:
+                r = float(np.linalg.norm(P[:, order_arr[a + 1:b]] - P[:, j:j + 1], axis=-1).max())
+            lo, hi = np.searchsorted(end_pos, [a, b])
+            if hi > lo:
+                r = max(r, float(np.linalg.norm(E[:, ends[lo:hi]] - P[:, j:j + 1], axis=-1).max()))
+            reach[j] = r
+        return reach
     for e, (j, _) in enumerate(sk.end_sites):
-        i = j
-        while i >= 0:
-            reach[i] = max(reach[i], float(np.linalg.norm(E[:, e] - P[:, i], axis=-1).max()))
-            i = sk.parents[i]
+        reach[j] = max(reach[j], float(np.linalg.norm(E[:, e] - P[:, j], axis=-1).max()))
+    for j in reversed(order):  # children before parents
+        p = parents[j]
+        if p >= 0:
+            reach[p] = max(reach[p], float(np.linalg.norm(P[:, j] - P[:, p], axis=-1).max()) + reach[j])
     return reach
 
 
 def _chain_depth(motion: Motion, rot: list[int], tr: list[int]) -> int:
+    """Largest number of animated tracks on a root-to-joint chain (one pass, parents first)."""
     sk = motion.skeleton
-    animated = set(rot) | set(tr)
-    best = 1
-    for k in range(sk.n_joints):
-        c = 0
-        i = k
-        while i >= 0:
-            c += (i in rot) + (i in tr)
-            i = sk.parents[i]
-        best = max(best, c)
-    return best if animated else 1
+    count = np.zeros(sk.n_joints, dtype=np.int64)
+    count[list(rot)] += 1
+    count[list(tr)] += 1
+    for j, p in enumerate(sk.parents.tolist()):
+        if p >= 0:
+            count[j] += count[p]
+    return max(1, int(count.max())) if (rot or tr) else 1
 
 
 def _signals(motion: Motion, rot: list[int], tr: list[int]):
@@ -220,7 +275,7 @@ def _to_icr(motion, method, target, rs, ts, maxlen, progress=None) -> SkeletalCo
     best = run(hi)
     tick(1, 41)
     if best.icr > target:
-        raise InvalidParameterError(f"ICR {target:g} is out of reach: the loosest threshold gives {best.icr:.4g}")
+        raise UnreachableTargetError(f"ICR {target:g} is out of reach: the loosest threshold gives {best.icr:.4g}")
     for i in range(40):
         mid = 0.5 * (lo + hi)
         c = run(mid)
@@ -237,6 +292,11 @@ def _to_position_bound(motion, E, rs, ts, maxlen, progress=None) -> SkeletalComp
         raise InvalidParameterError(f"max position error must be a positive number, got {E!r}")
     reach = _reach(motion)
     H = _chain_depth(motion, list(rs), list(ts))
+    P0 = forward_kinematics(motion)[0]  # the original's positions, computed once for every step
+    floor = 1e-9 * max(1.0, float(np.abs(P0).max()))  # far above float64 FK round-off (~1e-15 relative)
+    if E < floor:
+        raise InvalidParameterError(f"max position error {E:g} is below what float64 forward kinematics "
+                                    f"resolves on this skeleton ({floor:.3g} in its length unit)")
 
     def run(scale: float) -> tuple[SkeletalCompressed, float]:
         out = SkeletalCompressed(motion, "anglesw")
@@ -249,7 +309,7 @@ def _to_position_bound(motion, E, rs, ts, maxlen, progress=None) -> SkeletalComp
             out.rotations[j] = compress(s, "anglesw", ang, maxlen)
         for j, s in ts.items():
             out.translations[j] = compress(s, "swing", share / math.sqrt(3.0), maxlen)
-        err = float(position_errors(motion, out.decode()).max())
+        err = float(np.linalg.norm(forward_kinematics(out.decode())[0] - P0, axis=-1).max())
         out.info = {"mode": "max_position_error", "bound": E, "budget_scale": scale, "chain_depth": H}
         return out, err
 

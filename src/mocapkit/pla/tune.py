@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from mocapkit.errors import BoundViolationError, InvalidParameterError
+from mocapkit.errors import BoundViolationError, InvalidParameterError, UnreachableTargetError
 from mocapkit.motion import Signal
 from mocapkit.pla.base import Compressed, check_method, compress, prepared_values
 from mocapkit.pla.metrics import deviations
@@ -48,7 +48,7 @@ def threshold_for_icr(
     lo, hi = _search_range(method)
     top = run(10.0**hi)
     if top.icr > target_icr:
-        raise InvalidParameterError(
+        raise UnreachableTargetError(
             f"{signal.source or signal.name or 'signal'}: ICR {target_icr:g} is out of reach for {method}: the loosest "
             f"threshold gives {top.icr:.4g} ({top.n_points} points"
             + (f"; max segment length {max_segment_length})" if max_segment_length else ")")

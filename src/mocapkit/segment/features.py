@@ -110,7 +110,8 @@ def resolve_joint_map(names, overrides: dict[str, str] | None = None) -> dict[st
         tried = "; ".join(f"{r}: {', '.join(JOINT_CANDIDATES[r])}" for r in missing)
         raise InvalidParameterError(
             f"cannot find the joint for role(s) {', '.join(missing)} (tried {tried}); the skeleton has "
-            f"{', '.join(names)}. Give them as ROLE=JOINT (e.g. --joint spine=Spine3)"
+            f"{', '.join(names[:40])}{f' and {len(names) - 40} more joints' if len(names) > 40 else ''}. "
+            "Give them as ROLE=JOINT (e.g. --joint spine=Spine3)"
         )
     return out
 
