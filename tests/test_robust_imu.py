@@ -277,9 +277,15 @@ def test_complete_last_line_without_line_end_is_read(tmp_path: Path) -> None:
     rows = _fixed(6)
     p = _write(tmp_path / "ok.csv", H + "\n".join(rows))
     assert len(read_imu_csv(p)) == 6
-    # repr-written numbers have varying decimals: a short last value is not judged
+    # repr-written numbers have varying decimals: a last value shorter than the longest of its column
+    # is read as written, with a warning (rule (c)): never an error
     p = _write(tmp_path / "r.csv", "time,w,x,y,z\n0.0,1,0,0,0.123456789\n0.5,1,0,0,0.25\n1.0,1,0,0,0.5")
-    assert read_imu_csv(p).values[-1].tolist() == [1, 0, 0, 0.5]
+    sig = read_imu_csv(p)
+    assert sig.values[-1].tolist() == [1, 0, 0, 0.5]
+    assert any("line 4" in w and "'0.5'" in w and "may be cut short" in w for w in sig.meta["warnings"])
+    # as long as the longest value of its column: no warning
+    p = _write(tmp_path / "r2.csv", "time,w,x,y,z\n0.0,1,0,0,0.25\n0.5,1,0,0,0.5\n1.0,1,0,0,0.75")
+    assert not read_imu_csv(p).meta["warnings"]
 
 
 def test_cut_in_an_unused_column_is_a_warning(tmp_path: Path) -> None:
@@ -287,6 +293,106 @@ def test_cut_in_an_unused_column_is_a_warning(tmp_path: Path) -> None:
     p = _write(tmp_path / "u.csv", "Timestamp (us),W,X,Y,Z,Acc\n" + "\n".join(rows[:-1]) + "\n500,1,0,0,0,9.8")
     sig = read_imu_csv(p)
     assert len(sig) == 5 and any("cut short" in w and "Acc" in w for w in sig.meta["warnings"])
+
+
+FORMATS = Path(__file__).resolve().parent / "data" / "formats"
+XIO_PELVIS = Path(__file__).resolve().parent / "data" / "xio" / "pelvis" / "Quaternion.csv"
+EXE = [sys.executable, "-m", "mocapkit.cli"]
+
+
+def _stream_warnings(text: str) -> list[str]:
+    import warnings
+
+    from mocapkit.errors import MocapWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        list(iter_samples(io.StringIO(text), "<s>"))
+    return [str(w.message) for w in caught if issubclass(w.category, MocapWarning)]
+
+
+def test_generic_csv_cut_after_the_point_is_an_error(tmp_path: Path) -> None:
+    """``tests/data/formats/generic.csv`` ending ``1.0,0.1,0.2,0.3,0.`` (was ``0.4``): the column holds
+    ``0`` and ``1e-300``, so decimals cannot tell; a number ending with its point is cut (rule (a))."""
+    text = (FORMATS / "generic.csv").read_text().rstrip("\n")
+    assert text.endswith(",0.4")
+    cut = text[:-1]
+    p = _write(tmp_path / "generic.csv", cut)
+    _where(_err(p), p, 4, "column z", "'0.'", "cut short")
+    with pytest.raises(MocapFormatError, match="cut short") as info:
+        list(iter_samples(io.StringIO(cut), "<s>"))
+    assert info.value.line == 4
+    # the same line with its line end is a complete row holding 0.0 (a legitimate spelling)
+    p = _write(tmp_path / "whole.csv", cut + "\n")
+    assert read_imu_csv(p).values[-1].tolist() == [0.1, 0.2, 0.3, 0.0]
+    # cut before the point (``0``): shorter than ``1e-300`` in a column of varying shapes: a warning
+    p = _write(tmp_path / "generic0.csv", text[:-2])
+    sig = read_imu_csv(p)
+    assert any(w.startswith("line 4: column z:") and "'0'" in w and "may be cut short" in w
+               for w in sig.meta["warnings"]), sig.meta["warnings"]
+    assert any(w.startswith("<s>: line 4: column z:") for w in _stream_warnings(text[:-2]))
+    # the intact file without its final newline is read whole; ``0.4`` is shorter than ``1e-300``, so
+    # rule (c) may warn, but it is never refused
+    p = _write(tmp_path / "intact.csv", text)
+    assert read_imu_csv(p).values[-1].tolist() == [0.1, 0.2, 0.3, 0.4]
+    assert len(_stream_warnings(text)) <= 1 and len(list(iter_samples(io.StringIO(text + "\n"), "<s>"))) == 3
+
+
+@pytest.mark.parametrize("end", ["e", "E", "e-", "+", "-"])
+def test_last_value_ending_like_a_cut_number_is_an_error(tmp_path: Path, end: str) -> None:
+    rows = ["time,w,x,y,z,note", "0,1,0,0,0,1.5e-05", "1,1,0,0,0,2.5e+05", "2,1,0,0,0,3.5" + end]
+    p = _write(tmp_path / "e.csv", "\n".join(rows))
+    _where(_err(p), p, 4, "column note", "cut short")   # even in a column the reader does not use
+
+
+def test_trailing_point_written_by_the_exporter_is_not_a_cut(tmp_path: Path) -> None:
+    rows = ["time,w,x,y,z", "0,1,0,0,1.", "1,1,0,0,2.", "2,1,0,0,3."]
+    p = _write(tmp_path / "p.csv", "\n".join(rows))
+    assert read_imu_csv(p).values[-1].tolist() == [1, 0, 0, 3.0]
+
+
+@pytest.fixture(scope="module")
+def compress_points(tmp_path_factory) -> Path:
+    """A points CSV written by ``mocapkit compress`` (``repr`` floats: varying decimals)."""
+    out = tmp_path_factory.mktemp("points") / "points.csv"
+    r = subprocess.run(EXE + ["compress", str(XIO_PELVIS), "-t", "0.001", "-o", str(out)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def test_compress_points_cut_inside_their_last_value_are_reported(tmp_path: Path, compress_points: Path) -> None:
+    data = compress_points.read_bytes().rstrip(b"\n")
+    lines = data.split(b"\n")
+    n = len(lines)
+    shapes = {len(x.split(b",")[-1].partition(b".")[2]) for x in lines[1:]}
+    assert len(shapes) > 1, "the last column should be written with varying decimals"
+    start = data.rindex(b",") + 1   # the last value: from the last comma to the end
+    assert len(data) - start >= 4
+    # the intact file without its final newline: read, at most a warning
+    p = _write(tmp_path / "points.csv", data)
+    ref = read_imu_csv(compress_points).values
+    assert np.array_equal(read_imu_csv(p).values, ref)
+    for cut in range(start + 1, len(data)):
+        text = data[:cut]
+        p = _write(tmp_path / "points.csv", text)
+        try:
+            sig = read_imu_csv(p)
+        except MocapFormatError as e:
+            _where(e, p, n, "column z", "cut short")
+            continue
+        assert any(w.startswith(f"line {n}: column z:") and "may be cut short" in w
+                   for w in sig.meta["warnings"]), (text[-30:], sig.meta["warnings"])
+    # the case of the trial (``-0.053447`` cut to ``-0.05344``) through the command line: the warning
+    # names the file and the line, for decompress (which reads points) and compress
+    body = data[:start] + b"-0.05344"
+    p = _write(tmp_path / "cut_points.csv", body)
+    for argv in (["decompress", str(p), "-o", str(tmp_path / "d.csv"), "--rate", "50"],
+                 ["compress", str(p), "--max-angle", "2", "--json"]):
+        r = subprocess.run(EXE + argv, capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr
+        assert f"warning: {p}: line {n}: column z: the file has no final newline and its last value " \
+               "'-0.05344' is shorter than others of its column" in r.stderr, r.stderr
 
 
 # ------------------------------------------------------------------------------------------------

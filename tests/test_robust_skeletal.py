@@ -384,6 +384,44 @@ def test_amc_cut_files(tmp_path):
         read_amc_text("\n".join(body[: k + 3]), sk, "cut.amc")
 
 
+def test_amc_crlf_cut_inside_its_last_number_is_reported(tmp_path):
+    """The CMU excerpt (CRLF line ends, ``%g`` values: ``-6.563`` beside ``-4.49705``) cut inside its last
+    number, no final newline: ``ltoes -4.2989`` for ``-4.29898`` has as many decimals as some earlier
+    ``ltoes`` values, so only its length against the longest tells (a warning naming file and line);
+    ``-4.`` and ``-`` end like a cut number (an error naming the line)."""
+    raw = AMC86.read_bytes()
+    assert raw.endswith(b"ltoes -4.29898\r\n")
+    body = raw[:-2]
+    n = body.count(b"\n") + 1                       # the last line's number
+    asf = tmp_path / "86.asf"
+    asf.write_bytes(ASF86.read_bytes())
+    sk = read_asf(asf)
+    col = [ln.split()[-1] for ln in body.split(b"\r\n") if ln.startswith(b"ltoes ")][:-1]
+    assert any(len(t.partition(b".")[2]) <= 4 for t in col)   # the decimals vary: rule (b) cannot tell
+    for eol in (b"\r\n", b"\n"):                     # the line ends make no difference
+        text = body.replace(b"\r\n", eol)
+        amc = tmp_path / "cut.amc"
+        for cut in (b"-4.2989", b"-4.298", b"-4.29", b"-4"):
+            amc.write_bytes(text[:-len(b"-4.29898")] + cut)
+            with pytest.warns(MocapWarning) as rec:
+                m = read_amc(amc, sk)
+            msgs = [str(w.message) for w in rec if issubclass(w.category, MocapWarning)]
+            assert any(x.startswith(f"{amc}: line {n}, bone ltoes:") and "may be cut short" in x for x in msgs), msgs
+            assert any(f"line {n}" in w for w in m.meta["warnings"])
+            assert m.meta["amc_values"]["ltoes"][-1, -1] == float(cut)
+        for cut in (b"-4.", b"-"):
+            amc.write_bytes(text[:-len(b"-4.29898")] + cut)
+            with pytest.raises(MocapFormatError) as ei:
+                read_amc(amc, sk)
+            assert ei.value.path == str(amc) and ei.value.line == n and "cut short" in ei.value.problem, str(ei.value)
+        # the intact file without its final newline is read whole (no error)
+        amc.write_bytes(text)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", MocapWarning)
+            m = read_amc(amc, sk)
+        assert m.meta["amc_values"]["ltoes"][-1, -1] == -4.29898
+
+
 _AMC_HEAD = "\n".join(AMC_TEXT.split("\n")[: _line_of(AMC_TEXT, "root ", 4) - 2])  # 3 frames
 _AMC_POS = [(i, k) for i, ln in enumerate(_AMC_HEAD.split("\n")) for k, t in enumerate(ln.split())
             if k > 0 and bvh_mod.NUMBER_RE.fullmatch(t)]
@@ -622,7 +660,7 @@ def _deep_json(doc, blob):
     (_set(["animations", 0, "extras", "mocapkit", "frame_time"], 1e-320), "extras frame_time"),
     (_set(["animations", 0, "extras", "mocapkit", "n_frames"], 10**12), "joint-frames"),
     (_set(["animations", 0, "extras", "mocapkit", "unit_m"], 0), "extras unit_m"),
-    (_set(["animations", 0, "extras", "mocapkit", "channels"], [["Wrotation"]] * 40), "BVH channel names"),
+    (_set(["animations", 0, "extras", "mocapkit", "channels"], [["Wrotation"]] * 23), "BVH channel names"),
     (_set(["animations", 0, "samplers", 0, "input"], 10**6), "accessor index"),
     (_deep_json, "nested too deeply"),
     (lambda doc, blob: _glb_bytes(doc, bytes(blob))[:-100], "cut short"),
@@ -735,3 +773,95 @@ def test_cli_bad_bvh_numbers_are_one_line_errors(tmp_path):
             r = run(*cmd)
             assert r.returncode == 2 and r.stderr.startswith(f"error: {p}:") and r.stderr.count("\n") == 1, r.stderr
             assert "Infinity" not in r.stdout and not (tmp_path / "o.bvh").exists()
+
+
+# --------------------------------------------------------------------------------------------------
+# glTF JSON with lines duplicated or deleted (the trial's mutation of a `.gltf` clip)
+# --------------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def gltf_text(tmp_path_factory):
+    """The JSON text (one field or array item a line) of a `.gltf` clip of the walk, and its decode."""
+    d = tmp_path_factory.mktemp("gltf_text")
+    comp = compress_motion(read_bvh(WALK), "fastsw", max_position_error=1.0)
+    p = write_gltf(d / "walk.gltf", comp)
+    text = p.read_text()
+    assert text.count("\n") > 500  # indented: the mutations below act on single fields
+    return text, read_gltf(p)
+
+
+def _same_motion(a, b) -> bool:
+    sa, sb = a.skeleton, b.skeleton
+    return (sa.names == sb.names and np.array_equal(sa.parents, sb.parents) and sa.channels == sb.channels
+            and np.array_equal(sa.offsets, sb.offsets) and sa.end_sites == sb.end_sites
+            and np.array_equal(a.times, b.times) and np.array_equal(a.rotations, b.rotations)
+            and np.array_equal(a.translations, b.translations))
+
+
+def _mutate_lines(text: str, edits) -> str:
+    lines = text.split("\n")
+    for op, k in edits:
+        i = k % len(lines)
+        if op == "dup":
+            lines.insert(i, lines[i])
+        else:
+            del lines[i]
+    return "\n".join(lines)
+
+
+@given(edits=st.lists(st.tuples(st.sampled_from(["dup", "del"]), st.integers(0, 10**6)), min_size=1, max_size=3))
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_gltf_json_lines_duplicated_or_deleted_read_the_same_or_fail_cleanly(gltf_text, tmp_path, edits):
+    text, original = gltf_text
+    p = tmp_path / "mutated clip.gltf"
+    p.write_text(_mutate_lines(text, edits))
+    try:
+        m = read_gltf(p)
+    except MocapFormatError as exc:
+        assert exc.path == str(p) and str(exc).startswith(str(p)) and exc.problem, exc
+        return
+    # a clean read is the unchanged clip (a duplicated key keeps its value, a deleted optional field
+    # had its default): anything else would be a silently different motion
+    assert _same_motion(m, original), edits
+    write_bvh(tmp_path / "d.bvh", m)  # and it can be written (the trial's crash was in this step)
+
+
+def _drop_channel(doc):
+    doc["animations"][0]["extras"]["mocapkit"]["channels"][1].remove("Yrotation")  # the trial's 'XZ'
+
+
+def _drop_root_x(doc):
+    doc["animations"][0]["extras"]["mocapkit"]["channels"][0].remove("Xposition")
+
+
+def _drop(*keys):
+    def f(doc):
+        obj = doc
+        for k in keys[:-1]:
+            obj = obj[k]
+        del obj[keys[-1]]
+    return f
+
+
+def _cut_first_child(doc):
+    del doc["nodes"][0]["children"][0]
+
+
+@pytest.mark.parametrize("mutate,fragment", [
+    (_drop_channel, "extras channels of joint 1 must hold no rotation or all three"),
+    (_drop_root_x, "no Xposition channel in the extras but its X translation differs"),
+    (_drop("animations", 0, "extras", "mocapkit", "t0"), "has no 't0' field"),
+    (_drop("animations", 0, "extras", "mocapkit", "unit_m"), "has no 'unit_m' field"),
+    (_drop("nodes", 3, "name"), "node 3: no name"),
+    (_drop("animations", 0, "channels", 0, "target", "path"), "animation channel 0: a mocapkit file animates"),
+    (_cut_first_child, "scene 0 lists root nodes"),  # a joint cut loose from its parent
+])
+def test_gltf_damaged_extras_and_hierarchy_name_the_field(gltf_text, tmp_path, mutate, fragment):
+    doc = json.loads(gltf_text[0])
+    mutate(doc)
+    p = tmp_path / "walk.gltf"
+    p.write_text(json.dumps(doc, indent=2))
+    with pytest.raises(MocapFormatError) as ei:
+        read_gltf(p)
+    assert ei.value.path == str(p) and fragment in ei.value.problem, ei.value

@@ -334,3 +334,54 @@ def test_convert_bvh_to_amc_and_back(tests_data, tmp_path):
     P0 = forward_kinematics(read_amc(amc, asf))[0]
     P1 = forward_kinematics(read_amc(tmp_path / "b.amc", asf))[0]
     assert np.abs(P1 - P0).max() < 1e-4  # AMC is written with 6 decimals
+
+
+_PARTIAL = """HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
+  JOINT Knee
+  {
+    OFFSET 0 -40 0
+    CHANNELS %s
+    End Site
+    {
+      OFFSET 0 -40 0
+    }
+  }
+}
+MOTION
+Frames: 3
+Frame Time: 0.01
+"""
+
+
+@pytest.mark.parametrize("chans,rows", [
+    ("1 Zrotation", ["1 2 3 0 0 0 10", "1 2 3 5 0 0 -20", "1 2 3 0 7 0 35.5"]),
+    ("2 Xrotation Zrotation", ["0 0 0 0 0 0 10 -5", "0 0 0 0 0 0 -20 30", "0 0 0 0 0 0 0 90"]),
+])
+def test_joint_with_fewer_rotation_channels_writes_back_exactly(tmp_path, chans, rows):
+    src = tmp_path / "partial.bvh"
+    src.write_text(_PARTIAL % chans + "\n".join(rows) + "\n")
+    m = read_bvh(src)
+    out = tmp_path / "out.bvh"
+    write_bvh(out, m, precision=6, use_channel_values=False)  # from the rotations, not the file's values
+    back = read_bvh(out)
+    assert back.skeleton.channels == m.skeleton.channels
+    expect = np.array([[float(x) for x in r.split()] for r in rows])
+    got = np.array([[float(x) for x in r.split()] for r in out.read_text().split("Frame Time:")[1].split("\n")[1:4]])
+    np.testing.assert_allclose(got, expect, atol=1e-6)
+    np.testing.assert_allclose(forward_kinematics(back)[0], forward_kinematics(m)[0], atol=1e-9)
+
+
+def test_joint_with_fewer_rotation_channels_refuses_a_rotation_about_a_missing_axis(tmp_path):
+    from mocapkit.errors import InvalidSignalError
+
+    src = tmp_path / "partial.bvh"
+    src.write_text(_PARTIAL % "1 Zrotation" + "0 0 0 0 0 0 10\n0 0 0 0 0 0 20\n0 0 0 0 0 0 30\n")
+    m = read_bvh(src)
+    m.rotations[1, 1] = Rotation.from_euler("ZX", [20, 3], degrees=True).as_quat(scalar_first=True)
+    with pytest.raises(InvalidSignalError, match=r"'Knee' has the rotation channels Z only, but at frame 1 it turns 3 degrees about X"):
+        write_bvh(tmp_path / "out.bvh", m, use_channel_values=False)
+    assert not (tmp_path / "out.bvh").exists()

@@ -624,7 +624,6 @@ class Solver(str, Enum):
 
 def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
     """``[(name, times, values (N, D), component names)]`` to filter."""
-    from mocapkit.errors import MocapFormatError
     from mocapkit.io.loaders import kind_of
 
     out = []
@@ -660,47 +659,15 @@ def _filter_inputs(input: Path, markers: Optional[str], columns: Optional[str]):
     if kind_of(input) not in ("imu", "table") or input.suffix.lower() not in (".csv", ".txt"):
         raise InvalidParameterError(f"{input}: filter reads marker files (C3D, TSV, TRC, marker CSV) or a CSV "
                                     "with a time column; for skeletal motion, convert it or segment it")
-    # a plain CSV with a header: a time column (first) and named columns
-    from mocapkit.io.atomic import read_text_lines
-    from mocapkit.io.numbers import parse_number
+    # a plain CSV with a header: a time column (first) and named columns (strict, bounded: io/timetable.py)
+    from mocapkit.io.timetable import read_time_table
 
-    lines, _enc = read_text_lines(input, "CSV file")  # UTF-8 (BOM dropped), else Latin-1
-    while lines and not lines[-1].strip():
-        lines.pop()
-    if not lines:
-        raise MocapFormatError(str(input), None, "empty file")
-    header = [h.strip() for h in lines[0].split(",")]
-    if len(header) < 2:
-        raise MocapFormatError(str(input), 1, f"only one column ({header[0]!r}): a time column and at least one "
-                               "value column are needed")
-    rows, line_of = [], []
-    for i, ln in enumerate(lines[1:], start=2):
-        if not ln.strip():
-            continue
-        line_of.append(i)
-        f = ln.split(",")
-        if len(f) != len(header):
-            raise MocapFormatError(str(input), i, f"expected {len(header)} columns, got {len(f)}")
-        # strict numbers (no '0_5', no inf, |value| <= 1e12); an empty cell or nan is a missing sample
-        rows.append([parse_number(x.strip(), str(input), i, header[k] or f"column {k + 1}",
-                                  missing=() if k == 0 else ("", "nan", "NaN"))
-                     for k, x in enumerate(f)])
-    if not rows:
-        raise MocapFormatError(str(input), None, "header only, no data rows")
-    data = np.array(rows)
-    bad = np.flatnonzero(~(np.diff(data[:, 0]) > 0))
-    if bad.size or not np.all(np.isfinite(data[:, 0])):
-        i = int(bad[0]) + 1 if bad.size else int(np.flatnonzero(~np.isfinite(data[:, 0]))[0])
-        raise MocapFormatError(str(input), line_of[i], f"time {data[i, 0]!r} is not after the previous row's; "
-                               "times must be finite and strictly increasing")
-    if np.isinf(data).any():
-        i = int(np.flatnonzero(np.isinf(data).any(axis=1))[0])
-        raise MocapFormatError(str(input), line_of[i], "infinite value (leave a cell empty or write nan for a missing sample)")
-    names = [c.strip() for c in columns.split(",")] if columns else header[1:]
+    tab = read_time_table(input)
+    names = [c.strip() for c in columns.split(",")] if columns else tab.columns
     for c in names:
-        if c not in header[1:]:
-            raise InvalidParameterError(f"{input}: no column {c!r} (columns: {', '.join(header[1:])})")
-        out.append((c, data[:, 0], data[:, [header.index(c)]], [c]))
+        if c not in tab.columns:
+            raise InvalidParameterError(f"{input}: no column {c!r} (columns: {', '.join(tab.columns)})")
+        out.append((c, tab.times, tab.values[:, [tab.columns.index(c)]], [c]))
     return out
 
 
@@ -940,6 +907,7 @@ def decompress(
     if times_from is None and rate is None:
         raise InvalidParameterError("give --times-from ORIGINAL or --rate HZ")
     pts = read_imu_csv(points)
+    _warn_signals({"points": pts})
     if times_from is not None:
         originals = load_signals(times_from, rate=rate,
                                  **_columns(time_column, quaternion_columns, scalar_last, time_unit))

@@ -34,10 +34,13 @@ bones. A frame count times bone count that would build more than
 
 End of file: an AMC file cut short is recognised when it has no final newline. A last bone line with
 too few values, a cut bone name or a last frame without all its bones is an error that says so; a
-last line with the right count whose last value has fewer decimals (or exponent digits) than that
-value in every one of the up to 100 earlier lines of the bone (``-0`` for ``-0.124044``) is read with a
+last value ending with ``.``, ``e``, ``E``, ``+`` or ``-`` (``-4.`` for ``-4.29897``) is an error too. A last
+line with the right count whose last value has fewer decimals (or exponent digits) than that value in
+every one of the up to 100 earlier lines of the bone (``-0`` for ``-0.124044``) or, the values being
+written with varying decimals (``%g``, as the CMU files), fewer significant characters than the
+longest of them (``-4.2989`` for ``-4.29897``; see :func:`mocapkit.io.numbers.cut_kind`) is read with a
 warning (``Motion.meta["warnings"]`` and :func:`warnings.warn`, category
-:class:`~mocapkit.errors.MocapWarning`).
+:class:`~mocapkit.errors.MocapWarning`). Line ends (LF, CRLF, CR) make no difference.
 
 Model mapping
 -------------
@@ -101,7 +104,7 @@ from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapError, MocapFormatError, MocapWarning
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.numbers import MAX_ABS, looks_cut, parse_number
+from mocapkit.io.numbers import MAX_ABS, cut_kind, parse_number
 from mocapkit.quat import from_scipy, multiply, to_scipy
 from mocapkit.skeleton import MAX_JOINT_FRAMES, Motion, Skeleton
 
@@ -798,7 +801,12 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
                 if not all(map(isfinite, vals)):
                     vals = None
         if vals is None:  # slow path: find and report the offending token
-            vals = [_number(src, ln, t, f"bone {t0}") for t in toks[1:]]
+            try:
+                vals = [_number(src, ln, t, f"bone {t0}") for t in toks[1:]]
+            except MocapFormatError as exc:
+                if not cut(ln):
+                    raise
+                raise MocapFormatError(src, ln, exc.problem + cut(ln)) from None
         values[t0].append(vals)
     state["line"] = None
     if not frame_numbers:
@@ -815,8 +823,11 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
         )
     notes = []
     if not final_newline:
-        note = _cut_note(lines, last_line, ndof)
-        if note:
+        found = _cut_note(lines, last_line, ndof)
+        if found is not None and found[0] == "end":
+            raise MocapFormatError(src, last_line, found[1])
+        if found is not None:
+            note = found[1]
             notes.append(note)
             warnings.warn(f"{src}: {note}", MocapWarning, stacklevel=4)
     if ":DEGREES" in header and ":RADIANS" in header:
@@ -884,24 +895,32 @@ def _report_value(src: str, lines: list[str], frame_line: int, bone: str) -> Non
     raise MocapFormatError(src, frame_line, f"bone {bone}: a value is out of range (|value| > {MAX_ABS:g})")
 
 
-def _cut_note(lines: list[str], last: int, ndof: dict[str, int]) -> str | None:
-    """A note when the file's last line (no final newline) is a bone line whose last value is shorter
-    than the same value in every one of the up to 100 earlier lines of that bone."""
+def _cut_note(lines: list[str], last: int, ndof: dict[str, int]) -> tuple[str, str] | None:
+    """``(kind, note)`` when the file's last line (no final newline) is a bone line whose last value looks
+    cut short against the same value in the up to 100 earlier lines of that bone
+    (:func:`mocapkit.io.numbers.cut_kind`: ``"end"`` for ``-4.``, ``"shorter"``/``"short"`` for a value
+    shorter than those lines)."""
     toks = lines[last - 1].split("#", 1)[0].split()
     if len(toks) < 2 or ndof.get(toks[0]) != len(toks) - 1:
         return None
     column = []
     span = 100 * (len(ndof) + 1)
     for ln in range(last - 1, max(last - 1 - span, 0), -1):
-        t = lines[ln - 1].split()
+        t = lines[ln - 1].split("#", 1)[0].split()
         if t and t[0] == toks[0] and len(t) == len(toks):
             column.append(t[-1])
             if len(column) == 100:
                 break
-    if looks_cut(toks[-1], column):
-        return (f"line {last}, bone {toks[0]}: the last value {_short(toks[-1])} is shorter than the same value in "
-                f"the {len(column)} lines of that bone before it and the file has no final newline: it may be cut short")
-    return None
+    kind = cut_kind(toks[-1], column)
+    if kind is None:
+        return None
+    if kind == "end":
+        return kind, (f"bone {toks[0]}: the last value {_short(toks[-1])} ends like a number cut short and the file "
+                      "ends there without a final newline: it was cut short (delete this line to read the rest)")
+    how = "every value" if kind == "shorter" else "others"
+    return kind, (f"line {last}, bone {toks[0]}: the file has no final newline and its last value {_short(toks[-1])} "
+                  f"is shorter than {how} of its column (the {len(column)} lines of that bone before it): "
+                  "it may be cut short")
 
 
 def _conjugated(c_quat, m: Rotation) -> np.ndarray:

@@ -406,8 +406,8 @@ def _cut_value_warning(data: str, last_start: int, lineno: int, skel: Skeleton) 
             column.append(toks[col])
     if looks_cut(last[col], column):
         what = _column_names(skel)[col] if col < skel.n_channels else "last value"
-        return (f"line {lineno}, {what}: the last value {last[col][:30]!r} is shorter than every value of its "
-                f"column in the {len(column)} lines before it and the file has no final newline: it may be cut short")
+        return (f"line {lineno}, {what}: the file has no final newline and its last value {last[col][:30]!r} is "
+                f"shorter than others of its column (the {len(column)} lines before it): it may be cut short")
     return None
 
 
@@ -482,6 +482,10 @@ def motion_from_channels(skel: Skeleton, values: np.ndarray, frame_time: float, 
 # --------------------------------------------------------------------------------------------------
 
 
+PARTIAL_AXIS_TOL_DEG = 1e-6
+"""A joint with fewer than three rotation channels may turn at most this much about a missing axis."""
+
+
 def channels_from_motion(motion: Motion) -> np.ndarray:
     """BVH channel values ``(N, C)`` for a motion: Euler angles (degrees, unwrapped over time so the
     channels are continuous) in each joint's order, and positions from the local translations."""
@@ -491,9 +495,21 @@ def channels_from_motion(motion: Motion) -> np.ndarray:
         order = skel.rotation_order(j)
         eul = None
         if order:
+            # a joint with one or two rotation channels: decompose in its order completed by the
+            # missing axes, which must then turn by (numerically) nothing
+            full = order + "".join(a for a in "XYZ" if a not in order.upper())
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # gimbal lock: scipy still returns a valid decomposition
-                eul = to_scipy(motion.rotations[:, j]).as_euler(order, degrees=True)
+                eul = to_scipy(motion.rotations[:, j]).as_euler(full, degrees=True)
+            if len(order) < 3:
+                off = np.abs(eul[:, len(order):])
+                if off.size and off.max() > PARTIAL_AXIS_TOL_DEG:
+                    f, a = np.unravel_index(int(np.argmax(off)), off.shape)
+                    raise InvalidSignalError(
+                        f"joint {skel.names[j]!r} has the rotation channels {order} only, but at frame {f} it "
+                        f"turns {off[f, a]:.3g} degrees about {full[len(order) + a]}: BVH cannot hold that "
+                        "(write .glb, or give the joint three rotation channels)")
+                eul = eul[:, :len(order)]
             eul = np.degrees(np.unwrap(np.radians(eul), axis=0))
         k = 0
         for c in chans:

@@ -15,6 +15,11 @@ files are read too: every node is a joint, the frame rate is given by the caller
 GLB chunks and the JSON itself (standard ``json``, every field type- and range-checked) rather than
 through pygltflib, whose object mapping costs about a millisecond per node, accessor or sampler; any
 malformed or hostile content is a :class:`~mocapkit.errors.MocapFormatError` naming the file.
+A file with ``extras["mocapkit"]`` must hold every field written here (none is defaulted) and agree
+with itself: one channel list and offset per joint, rotation channels none or X, Y, Z once each, a
+rotation/translation track exactly for joints with rotation/position channels (and no motion a BVH
+channel list could not write), the scene's roots exactly the parentless nodes, every joint named;
+accessor ``min``/``max`` (written for every accessor) must match the values read.
 """
 
 from __future__ import annotations
@@ -104,11 +109,11 @@ def build_gltf(comp, unit_m: float = 0.01, name: str = "mocapkit") -> g.GLTF2:
     for j, c in sorted(comp.rotations.items()):
         q = c.values / np.linalg.norm(c.values, axis=1, keepdims=True)
         q = hemisphere_continuous(q)
-        out = blob.add(np.concatenate([q[:, 1:], q[:, :1]], axis=1), g.VEC4)
+        out = blob.add(np.concatenate([q[:, 1:], q[:, :1]], axis=1), g.VEC4, minmax=True)
         samplers.append(g.AnimationSampler(input=times_accessor(c.times), output=out, interpolation="LINEAR"))
         channels.append(g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="rotation")))
     for j, c in sorted(comp.translations.items()):
-        out = blob.add(c.values * unit_m, g.VEC3)
+        out = blob.add(c.values * unit_m, g.VEC3, minmax=True)
         samplers.append(g.AnimationSampler(input=times_accessor(c.times), output=out, interpolation="LINEAR"))
         channels.append(g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="translation")))
     roots = [j for j in range(sk.n_joints) if sk.parents[j] < 0]
@@ -319,6 +324,7 @@ def _accessor(doc: dict, blob: bytes, i, what: str) -> np.ndarray:
     if bad.any():
         k = int(np.flatnonzero(bad.any(axis=1))[0])
         raise _Bad(f"accessor {i} element {k}: {out[k].tolist()} is not finite or larger than {MAX_ABS:g}")
+    _check_min_max(acc, i, out)
     return out
 
 
@@ -378,10 +384,89 @@ def _check_size(n_frames: int, n_joints: int) -> None:
 
 
 def _channels(v, j: int) -> tuple[str, ...]:
-    if not isinstance(v, list) or len(v) > 6 or len(set(map(str, v))) != len(v) or \
-            not all(isinstance(c, str) and c in _VALID_CHANNELS for c in v):
+    """Joint ``j``'s BVH channels from the extras: distinct names, no rotation or exactly three
+    rotation axes (X, Y and Z once each: an Euler order), each position axis at most once."""
+    if not isinstance(v, list) or len(v) > 6 or not all(isinstance(c, str) and c in _VALID_CHANNELS for c in v) \
+            or len(set(v)) != len(v):
         raise _Bad(f"extras channels of joint {j} must be distinct BVH channel names, got {str(v)[:60]}")
+    n_rot = sum(c in ROTATION_CHANNELS for c in v)
+    if n_rot not in (0, 3):
+        raise _Bad(f"extras channels of joint {j} must hold no rotation or all three (Xrotation, Yrotation, "
+                   f"Zrotation in some order), got {n_rot}: {str(v)[:80]}")
     return tuple(v)
+
+
+_EXTRAS_FIELDS = ("n_joints", "channels", "offsets", "t0", "frame_time", "n_frames", "unit_m")
+
+
+def _mocapkit_extras(anim: dict | None) -> dict | None:
+    """The ``extras["mocapkit"]`` object of a file written by :func:`write_gltf` with every field it
+    writes (a missing one means the file was damaged: no default could be right), or ``None``."""
+    if anim is None:
+        return None
+    extras = _obj(anim.get("extras", {}), "animation extras")
+    if EXTRAS_KEY not in extras:
+        return None
+    mk = _obj(extras[EXTRAS_KEY], f"extras {EXTRAS_KEY!r}")
+    for key in _EXTRAS_FIELDS:
+        if key not in mk:
+            raise _Bad(f"extras {EXTRAS_KEY!r} has no {key!r} field (a file written by mocapkit has all of "
+                       f"{', '.join(_EXTRAS_FIELDS)})")
+    return mk
+
+
+def _scene_roots(doc: dict, parents: np.ndarray) -> None:
+    """A file written here lists exactly its parentless nodes as the scene's roots: a node cut from its
+    parent's ``children`` (a joint or an end site dropped out of the hierarchy) is an error."""
+    scenes = _list(doc, "scenes")
+    si = _int(doc.get("scene", 0), "scene", 0, max(len(scenes) - 1, 0))
+    if not scenes:
+        raise _Bad("no scenes: a file written by mocapkit has one")
+    listed = _list(_obj(scenes[si], f"scene {si}"), "nodes")
+    roots = [int(i) for i in np.flatnonzero(parents < 0)]
+    if sorted(_int(n, f"scene {si}: node", 0, len(parents) - 1) for n in listed) != roots:
+        raise _Bad(f"scene {si} lists root nodes {str(listed)[:60]} but the nodes without a parent are "
+                   f"{str(roots)[:60]}: the hierarchy is damaged")
+
+
+def _check_min_max(acc: dict, i: int, out: np.ndarray) -> None:
+    """``min``/``max`` of an accessor, when given, must be the values' (glTF requires them exact; a
+    mismatch means the accessor reads the wrong bytes)."""
+    for key, got in (("min", out.min(axis=0)), ("max", out.max(axis=0))):
+        if key not in acc:
+            continue
+        v = acc[key]
+        if not isinstance(v, list) or len(v) != out.shape[1]:
+            raise _Bad(f"accessor {i}: {key} must be {out.shape[1]} numbers")
+        want = np.array([_num(x, f"accessor {i}: {key}") for x in v])
+        if not np.all(np.abs(want - got) <= 1e-6 * np.maximum(1.0, np.abs(got))):
+            raise _Bad(f"accessor {i}: {key} {want.tolist()[:4]} differs from its values' {got.tolist()[:4]} "
+                       "(the accessor or its bufferView is damaged)")
+
+
+def _check_channels_hold_motion(chans, offsets: np.ndarray, rot: np.ndarray, trans: np.ndarray,
+                                names, tracks: dict) -> None:
+    """The extras' channels agree with the animation, as :func:`write_gltf` writes them: a joint has a
+    rotation track exactly when it has rotation channels and a translation track exactly when it has
+    position channels. What BVH cannot write must not move: a joint without rotation channels keeps the
+    identity rotation and an axis without a position channel keeps its offset (else writing the BVH
+    channels would drop motion silently)."""
+    for j, ch in enumerate(chans):
+        for kind, listed in (("rotation", any(c in ROTATION_CHANNELS for c in ch)),
+                             ("translation", any(c in POSITION_CHANNELS for c in ch))):
+            if listed != ((j, kind) in tracks):
+                raise _Bad(f"joint {names[j]!r}: the extras list {'' if listed else 'no '}{kind} channels "
+                           f"({', '.join(ch) or 'none'}) but the animation has {'no ' if listed else 'a '}"
+                           f"{kind} track for it")
+        if not any(c in ROTATION_CHANNELS for c in ch):
+            if not np.all(np.abs(rot[:, j, 0]) >= 1.0 - 1e-6):
+                raise _Bad(f"joint {names[j]!r} has no rotation channels in the extras but its rotation is animated")
+        for a, axis in enumerate("XYZ"):
+            if f"{axis}position" not in ch:
+                dev = np.abs(trans[:, j, a] - offsets[j, a])
+                if not np.all(dev <= 1e-5 * max(1.0, abs(offsets[j, a]))):
+                    raise _Bad(f"joint {names[j]!r} has no {axis}position channel in the extras but its {axis} "
+                               f"translation differs from its offset by up to {dev.max():g}")
 
 
 def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
@@ -391,8 +476,8 @@ def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
     nodes = [_obj(n, f"node {i}") for i, n in enumerate(nodes)]
     anims = _list(doc, "animations")
     anim = _obj(anims[0], "animation 0") if anims else None
-    extras = _obj(anim.get("extras", {}) if anim is not None else {}, "animation extras")
-    extras = _obj(extras.get(EXTRAS_KEY) or {}, f"extras {EXTRAS_KEY!r}")
+    mk = _mocapkit_extras(anim)  # a file written by write_gltf: every field checked, none defaulted
+    extras = mk if mk is not None else {}
     n_nodes = _int(extras.get("n_joints", len(nodes)), "extras n_joints", 1)
     if n_nodes > len(nodes):
         raise _Bad(f"extras say {n_nodes} joints but the file has {len(nodes)} nodes")
@@ -415,6 +500,8 @@ def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
         stack.extend(c for c in reversed(children[i]) if c < n_nodes)
     if len(order) != n_nodes:
         raise _Bad("the node hierarchy has a cycle (or a joint hangs below a non-joint node)")
+    if mk is not None:
+        _scene_roots(doc, parents)
     new = {old: k for k, old in enumerate(order)}
     unit_m = _num(extras.get("unit_m", 1.0), "extras unit_m", MIN_UNIT_M, MAX_UNIT_M)
 
@@ -437,11 +524,17 @@ def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
             ch = _obj(ch, f"animation channel {ci}")
             target = _obj(ch.get("target"), f"animation channel {ci}: target")
             node, kind = target.get("node"), target.get("path")
+            if mk is not None and (kind not in ("rotation", "translation") or not isinstance(node, int)
+                                   or isinstance(node, bool) or not 0 <= node < n_nodes):
+                raise _Bad(f"animation channel {ci}: a mocapkit file animates the rotation or translation of a "
+                           f"joint node (0..{n_nodes - 1}), got path {str(kind)[:20]}, node {str(node)[:20]}")
             if kind not in ("rotation", "translation") or node is None:
                 continue
             node = _int(node, f"animation channel {ci}: target node", 0, len(nodes) - 1)
             if node not in new:
                 continue
+            if (new[node], kind) in tracks:
+                raise _Bad(f"animation channel {ci}: node {node} {kind} is animated twice (glTF allows a target once)")
             si = _int(ch.get("sampler"), f"animation channel {ci}: sampler", 0, len(samplers) - 1)
             smp = _obj(samplers[si], f"sampler {si}")
             if smp.get("interpolation", "LINEAR") != "LINEAR":
@@ -493,14 +586,19 @@ def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
             trans[:, j] = _sample(kt, kv, times, False)
     names = []
     for o in order:
+        if mk is not None and "name" not in nodes[o]:
+            raise _Bad(f"node {o}: no name (a file written by mocapkit names every joint)")
         nm = nodes[o].get("name", f"joint{o}")
         if not isinstance(nm, str):
             raise _Bad(f"node {o}: name is not a string")
+        if mk is not None and (not nm or any(ch.isspace() or ch in "{}" or not ch.isprintable() for ch in nm)):
+            raise _Bad(f"node {o}: name {nm[:40]!r} is not a joint name (empty, or holds blanks or braces)")
         names.append(nm or f"joint{o}")
     if "channels" in extras:
         ch_list = extras["channels"]
-        if not isinstance(ch_list, list) or len(ch_list) < n_nodes:
-            raise _Bad(f"extras channels must list the channels of the {n_nodes} joints")
+        if not isinstance(ch_list, list) or len(ch_list) != n_nodes:
+            raise _Bad(f"extras channels must list the channels of the {n_nodes} joints, "
+                       f"got {len(ch_list) if isinstance(ch_list, list) else type(ch_list).__name__}")
         chans = [_channels(ch_list[o], o) for o in order]
     else:
         chans = [(("Xposition", "Yposition", "Zposition") if (j, "translation") in tracks else ())
@@ -515,9 +613,13 @@ def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
     offsets = rest_t
     if "offsets" in extras:
         off_list = extras["offsets"]
-        if not isinstance(off_list, list) or len(off_list) < n_nodes:
-            raise _Bad(f"extras offsets must list the offsets of the {n_nodes} joints")
-        offsets = np.array([_vec(off_list[o], 3, f"extras offsets of joint {o}", [0, 0, 0]) for o in order])
+        if not isinstance(off_list, list) or len(off_list) != n_nodes:
+            raise _Bad(f"extras offsets must list the offsets of the {n_nodes} joints, "
+                       f"got {len(off_list) if isinstance(off_list, list) else type(off_list).__name__}")
+        offsets = np.array([_vec([] if off_list[o] is None else off_list[o], 3, f"extras offsets of joint {o}",
+                                 None) for o in order]).reshape(-1, 3)
+    if mk is not None:
+        _check_channels_hold_motion(chans, offsets, rot, trans, names, tracks)
     try:
         sk = Skeleton(tuple(names), np.array([new[parents[o]] if parents[o] >= 0 else -1 for o in order]),
                       offsets, tuple(chans), tuple(end_sites),

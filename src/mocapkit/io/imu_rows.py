@@ -15,11 +15,21 @@ frame is dropped for that body and counted in ``meta["warnings"]``. No other sup
 missing-value convention, so an empty, ``nan`` or ``inf`` cell is an error there.
 
 A file whose last line has no line end may have been cut short: a different number of fields on
-that line is an error (the message says so), and so is a last number with fewer decimals than the
-same column on every one of the 20 rows before it (a fixed-decimal export cut in the middle of
-``-0.124044`` leaves ``-0``; see :func:`mocapkit.io.textinput.cut_short_cell`). Columns written
-with a varying number of decimals cannot tell and are not judged. In a column the reader does not
-use the same finding is only a warning (the data read are complete).
+that line is an error (the message says so). Its last value is judged against the same column on
+the (up to) 20 rows before it (:func:`mocapkit.io.textinput.cut_cell`):
+
+(a) it ends with ``.``, ``e``, ``E``, ``+`` or ``-`` (``0.`` for ``0.4``): an error;
+(b) it has fewer decimals (or exponent digits) than that column on every one of those rows, all
+    written alike (a fixed-decimal export cut in the middle of ``-0.124044`` leaves ``-0``): an error,
+    only a warning in a column the reader does not use (the data read are complete);
+(c) otherwise, in a column written with varying decimals (``repr``, ``%g``: the points CSV of
+    ``mocapkit compress``), it has fewer significant characters than the longest value of that column
+    in those rows (``-0.05344`` for ``-0.053447``): a warning in ``meta["warnings"]`` ("the file has no
+    final newline and its last value ... is shorter than others of its column: it may be cut short").
+
+A complete file that merely lacks a final line end is never refused; at most it gets warning (c).
+The streaming reader (``online``) has no ``meta``: it issues its warnings with :func:`warnings.warn`
+(:class:`~mocapkit.errors.MocapWarning`), which the command line prints.
 
 Counters and device clocks that wrap (uint16 ``PacketCounter``, uint32 ``SampleTimeFine``) are
 unwrapped when the next row continues from the wrapped value (serial-number arithmetic: a drop
@@ -52,13 +62,13 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from mocapkit.errors import MocapFormatError
+from mocapkit.errors import MocapFormatError, MocapWarning
 from mocapkit.io.imu_columns import TIME_UNITS
 from mocapkit.io.imu_layout import Layout
 from mocapkit.io.imu_lines import check_line
 from mocapkit.io.imu_orientation import euler_note, matrices_to_quaternions, matrix_note, quaternions_from_euler
-from mocapkit.io.numbers import MAX_ABS, NUMBER_RE, parse_number
-from mocapkit.io.textinput import cut_short_cell
+from mocapkit.io.numbers import CUT_ENDINGS, MAX_ABS, NUMBER_RE, parse_number
+from mocapkit.io.textinput import cut_cell, short_value_note
 
 __all__ = ["COUNTER_LIMIT", "MAX_BLANK_LINES", "MIN_STEP", "PLAUSIBLE_RATE", "TIME_LIMIT", "RowReader"]
 
@@ -204,6 +214,10 @@ class RowReader:
             raise MocapFormatError(self.src, ln, f"column {name} is NaN")
         if low in _INF_WORDS:
             raise MocapFormatError(self.src, ln, f"column {name} is infinite ({_short(text)})")
+        if ln == self._final_ln and text.strip().endswith(CUT_ENDINGS):  # '-', '1e-': rule (a)
+            raise MocapFormatError(self.src, ln, f"column {name}: {_short(text.strip())} is not a number; the file "
+                                   "ends in this line without a line end: it was cut short (delete this line to "
+                                   "read the rest)")
         return parse_number(text, self.src, ln, f"column {name}", limit=limit)  # raises: not a number
 
     # ---------------------------------------------------------------------------------------------
@@ -588,21 +602,36 @@ class RowReader:
         self.check_cut_line([self.split(x) for x in lines[:-1]], lines[-1], self._final_ln)  # type: ignore[arg-type]
 
     def check_cut_line(self, prev_rows: list[list[str]], last: str, ln: int) -> None:
-        """Report a last line (without a line end) whose last number looks cut short: an error in a
-        used column, a warning in another."""
+        """Report a last line (without a line end) whose last number looks cut short (rules (a)-(c) of
+        the module docstring): an error, or a warning in an unused column or when it is only shorter
+        than others of a column written with varying decimals."""
         self._final_ln = ln
         if len(prev_rows) < 2:
             return
         fields = self.split(last)
-        j = cut_short_cell(prev_rows, fields)
-        if j is None:
+        found = cut_cell(prev_rows, fields)
+        if found is None:
             return
+        j, verdict = found
         name = self.lay.names[j] if j < len(self.lay.names) else f"column {j + 1}"
-        what = (f"column {name}: {_short(fields[j].strip())} has fewer decimals than the rows before it and the "
-                "file ends there without a line end")
-        if j in self._used:
+        cell = fields[j].strip()
+        if verdict == "short":
+            self._warn(f"line {ln}: column {name}: {short_value_note(cell)}")
+            return
+        ends_cut = cell.endswith((".", "e", "E", "+", "-"))
+        how = "ends like a number cut short" if ends_cut else "has fewer decimals than the rows before it"
+        what = f"column {name}: {_short(cell)} {how} and the file ends there without a line end"
+        if j in self._used or ends_cut:
             raise MocapFormatError(self.src, ln, f"{what}: the file was cut short (delete this line to read the rest)")
-        self.warnings.append(f"line {ln}: {what} (an unused column; the file may have been cut short)")
+        self._warn(f"line {ln}: {what} (an unused column; the file may have been cut short)")
+
+    def _warn(self, text: str) -> None:
+        """A warning for ``meta["warnings"]``; a stream (no meta) issues it with :func:`warnings.warn`."""
+        self.warnings.append(text)
+        if self.online:
+            import warnings
+
+            warnings.warn(f"{self.src}: {text}", MocapWarning, stacklevel=4)
 
     # ---------------------------------------------------------------------------------------------
     # results

@@ -10,6 +10,10 @@ different numbers without a word. Readers parse tokens here instead:
   only where the reader asks for it and becomes ``nan``;
 - ``|value| > MAX_ABS`` is refused: squaring or summing such values would overflow float64
   (``1e308`` offsets gave ``inf``/``nan`` errors that then reported "success").
+
+The last value of a file that ends without a newline may have been cut short by a truncated copy;
+:func:`cut_kind` tells how it looks against the values above it (see :mod:`mocapkit.io.textinput`
+for the rule the readers apply).
 """
 
 from __future__ import annotations
@@ -95,13 +99,50 @@ def token_shape(tok: str) -> tuple[int, int]:
     return (len(mant) - mant.index(".") - 1 if "." in mant else 0), len(exp.lstrip("+-"))
 
 
+#: Last characters of a token that a complete number does not end with: a number cut after its point,
+#: its exponent mark or a sign (``0.`` for ``0.4``, ``1e`` for ``1e-05``, ``-`` for ``-0.12``).
+CUT_ENDINGS = (".", "e", "E", "+", "-")
+
+
+def significant_length(tok: str) -> int:
+    """Characters of a number token other than blanks and its sign: ``"-0.05344"`` -> 7, ``"1e-300"`` -> 6."""
+    return len(tok.strip().lstrip("+-"))
+
+
+def cut_kind(last: str, column: Iterable[str]) -> str | None:
+    """How ``last`` — the final token of a file that ends without a newline — looks cut short, judged
+    against ``column`` (the same field on the lines before it; tokens that are not numbers are ignored):
+
+    - ``"end"``: it ends with one of :data:`CUT_ENDINGS` (a ``.`` only when no earlier value of the
+      column ends with one: some writers put ``1.`` for whole numbers);
+    - ``"shorter"``: it has fewer decimals, or fewer exponent digits, than *every* value of the column;
+    - ``"short"``: the column's values do not all have the same decimals and exponent digits (a ``repr``
+      or ``%g`` writer) and it has fewer significant characters (:func:`significant_length`) than the
+      longest of them. Such values may simply be short, so this one is a doubt, not proof (a column
+      with fixed decimals is judged by ``"shorter"`` alone: ``2.500000`` under ``-12.500000`` is whole);
+    - ``None``: nothing says it is cut (always ``None`` for a ``column`` without numbers, except ``"end"``).
+    """
+    t = last.strip()
+    col = [c.strip() for c in column]
+    col = [c for c in col if _fullmatch(c)]
+    if t.endswith(CUT_ENDINGS) and not (t.endswith(".") and any(c.endswith(".") for c in col)):
+        return "end"
+    if not col or not _fullmatch(t):
+        return None
+    shapes = [token_shape(c) for c in col]
+    dec, ex = token_shape(t)
+    if dec < min(s[0] for s in shapes) or ex < min(s[1] for s in shapes):
+        return "shorter"
+    if len(set(shapes)) > 1 and significant_length(t) < max(significant_length(c) for c in col):
+        return "short"
+    return None
+
+
 def looks_cut(last: str, column: Iterable[str]) -> bool:
-    """True when ``last`` — the final token of a file that ends without a newline — has fewer
-    decimals or fewer exponent digits than *every* token of ``column`` (the same field on the lines
-    before it): ``-0`` where the column reads ``-0.124044`` was probably cut short by a truncated copy.
-    An empty ``column`` gives False."""
-    shapes = [token_shape(t) for t in column]
-    if not shapes:
-        return False
-    dec, ex = token_shape(last)
-    return dec < min(s[0] for s in shapes) or ex < min(s[1] for s in shapes)
+    """True when :func:`cut_kind` finds ``last`` — the final token of a file that ends without a newline —
+    possibly cut short against ``column`` (the same field on the lines before it): it ends with a point,
+    an exponent mark or a sign, has fewer decimals or exponent digits than every token of ``column``
+    (``-0`` where the column reads ``-0.124044``), or fewer significant characters than the longest one
+    (``-0.05344`` where a ``repr`` column holds ``-0.053447``). An empty ``column`` gives False unless
+    ``last`` ends like a cut number."""
+    return cut_kind(last, column) is not None

@@ -12,7 +12,11 @@ rules (:mod:`mocapkit.io.imu_rows`: strict finite numbers, time steps of at leas
 ``nan``/``inf`` or out-of-range sample is ever yielded. Lines are read with a bounded ``readline``
 (at most 1 MiB: ``/dev/zero`` or a pipe without line ends fails at once), a NUL byte or
 undecodable bytes are errors, and a last line without a line end (after lines with one) is checked
-for a number cut short. Memory stays constant: only the last 20 rows' text is kept.
+for a number cut short by the file reader's rules (a)-(c) (:mod:`mocapkit.io.imu_rows`): an error
+when it ends with ``.``, ``e``, ``E``, ``+`` or ``-`` or has fewer decimals than its fixed-decimal
+column, a :class:`~mocapkit.errors.MocapWarning` (:func:`warnings.warn`; a stream has no ``meta``)
+when it is only shorter than others of a column with varying decimals. Memory stays constant: only
+the last 20 rows' text is kept.
 Every problem raises :class:`~mocapkit.errors.MocapFormatError` with the line number, after the
 samples before it have been yielded (so a live consumer has already used them).
 """

@@ -6,8 +6,26 @@
   refuses a NUL byte as soon as a chunk shows one, so ``/dev/zero`` fails after the first chunk.
 - Text is UTF-8 (a byte-order mark is dropped) or, failing that, Latin-1 (exports of Windows tools):
   decoding never fails.
-- :func:`cut_short_cell` tells whether the last line of a file that ends without a newline looks cut
-  in the middle of a number (fewer decimals than the same column on every earlier row shown).
+
+End of file. A last line written without a newline may be a copy cut short. Its last value ``X`` is
+judged against the same column on the rows before it (:func:`mocapkit.io.numbers.cut_kind`):
+
+(a) ``X`` ends with ``.``, ``e``, ``E``, ``+`` or ``-`` (``0.`` for ``0.4``): cut, an error (a ``.`` only
+    when no earlier value of the column ends with one);
+(b) ``X`` has fewer decimals or exponent digits than that column on every earlier row, all written
+    with the same decimals (``-0`` or ``-0.12`` for ``-0.124044``): cut, an error (a reader may make it
+    a warning in a column it does not use);
+(c) otherwise, in a column whose values are written with varying decimals (``repr``, ``%g``), ``X`` has
+    fewer significant characters (all but the sign) than the longest value of the column in the rows
+    examined (``-0.05344`` for ``-0.053447``): a warning, "the file has no final newline and its last
+    value X is shorter than others of its column: it may be cut short". A complete file that merely
+    lacks a final newline is never refused; at most it gets this warning.
+
+:func:`cut_cell` applies (a)-(c) to a row (the IMU readers), :func:`final_line_verdict` and
+:func:`report_final_line` do it for the marker and table readers (which also warn, under (c), for any
+last value of a column with varying decimals that they cannot check). The AMC reader applies
+:func:`mocapkit.io.numbers.cut_kind` itself (an error under (a), a warning under (b) and (c)) and the BVH
+reader :func:`mocapkit.io.numbers.looks_cut` (a warning).
 """
 
 from __future__ import annotations
@@ -18,11 +36,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.numbers import NUMBER_RE
+from mocapkit.io.numbers import NUMBER_RE, cut_kind
 
 __all__ = ["MAX_STREAM_BYTES", "MAX_HEADER_LINE", "read_input", "decode_text", "read_text",
-           "split_lines", "cut_short_cell", "final_line_verdict", "report_final_line", "check_cells_budget",
-           "is_regular"]
+           "split_lines", "cut_cell", "short_value_note", "final_line_verdict",
+           "report_final_line", "check_cells_budget", "is_regular"]
 
 #: Largest input accepted from a pipe or device (a regular file is limited by its size only).
 MAX_STREAM_BYTES = 256 * 1024 * 1024
@@ -134,28 +152,39 @@ def _shape(tok: str) -> tuple[int, int] | None:
     return dec, len(exp.lstrip("+-"))
 
 
-def cut_short_cell(prev_rows: list[list[str]], last: list[str]) -> int | None:
-    """Index of a cell of ``last`` (the final line, written without a newline) that looks cut short.
+def cut_cell(prev_rows: list[list[str]], last: list[str]) -> tuple[int, str] | None:
+    """``(j, verdict)`` for the last non-empty cell ``j`` of ``last`` (the final line, written without a
+    newline) when it looks cut short, else ``None``.
 
-    Only the last non-empty cell can be cut. It is cut short when every earlier row given writes that
-    column with the same number of decimals (and exponent digits) and the last cell has fewer: a
-    fixed-decimal export (QTM, TRC) cut in the middle of ``-0.124044`` leaves ``-0`` or ``-0.12``.
-    Columns written with a varying number of decimals (``repr``) cannot tell and are not judged.
+    ``verdict`` is ``"cut"`` under rules (a) and (b) of the module docstring (it ends with ``.``, ``e``,
+    ``E``, ``+`` or ``-``; or it has fewer decimals or exponent digits than that column on every earlier
+    row of ``prev_rows``, all written alike) and ``"short"`` under rule (c) (fewer significant
+    characters than the longest value of a column written with varying decimals: maybe cut).
     """
     j = len(last) - 1
     while j >= 0 and not last[j].strip():
         j -= 1
-    if j < 0 or not prev_rows:
+    if j < 0:
         return None
-    mine = _shape(last[j])
-    if mine is None:
-        return None
-    shapes = {_shape(r[j]) if j < len(r) else None for r in prev_rows}
-    shapes.discard(None)
-    if len(shapes) != 1:
-        return None
-    dec, exp = shapes.pop()
-    return j if mine[0] < dec or mine[1] < exp else None
+    column = [r[j] for r in prev_rows if j < len(r)]
+    kind = cut_kind(last[j], column)
+    if kind == "end":
+        return j, "cut"
+    if kind == "shorter":
+        shapes = {_shape(c) for c in column}
+        shapes.discard(None)
+        return j, ("cut" if len(shapes) == 1 else "short")
+    if kind == "short":
+        return j, "short"
+    return None
+
+
+def short_value_note(cell: str) -> str:
+    """The rule-(c) warning text for a last value ``cell`` (see the module docstring)."""
+    shown = cell.strip()
+    shown = repr(shown if len(shown) <= 40 else shown[:37] + "...")
+    return (f"the file has no final newline and its last value {shown} is shorter than others of its column: "
+            "it may be cut short")
 
 
 def final_line_verdict(prev_rows: list[list[str]], last: list[str], *,
@@ -163,8 +192,9 @@ def final_line_verdict(prev_rows: list[list[str]], last: list[str], *,
     """Judge the final line of a file that ends without a newline against the rows before it.
 
     Returns ``("fields", None)`` when it has another number of cells than the row before it (with
-    ``count``), ``("cut", j)`` when cell ``j`` is evidently cut (fewer decimals than that column has
-    on every earlier row, or empty where every earlier row has a value), ``("complete", j)`` when its
+    ``count``), ``("cut", j)`` when cell ``j`` is evidently cut (it ends with ``.``, ``e``, ``E``, ``+`` or
+    ``-``; fewer decimals than that column has on every earlier row; or empty where every earlier row
+    has a value), ``("complete", j)`` when its
     last value has that column's fixed number of decimals, and ``("unknown", j)`` when the column's
     decimals vary (``%g``/``repr`` writers) so that a cut cannot be told from a short number.
     """
@@ -179,6 +209,8 @@ def final_line_verdict(prev_rows: list[list[str]], last: list[str], *,
         j -= 1
     if j < 0:
         return "unknown", None
+    if cut_kind(last[j], [r[j] for r in prev_rows if j < len(r)]) == "end":
+        return "cut", j  # rule (a): '0.' for '0.4', '1e' for '1e-05'
     mine = _shape(last[j])
     shapes = {_shape(r[j]) if j < len(r) else None for r in prev_rows}
     shapes.discard(None)
@@ -203,9 +235,10 @@ def report_final_line(src: str, line: int, verdict: str, j: int | None, field: s
                                "to read the rest)")
     if verdict == "cut":
         shown = repr(cell.strip()[:40]) if cell.strip() else "an empty cell"
-        raise MocapFormatError(src, line, f"{field}: {shown} is shorter than that column on the rows before "
-                               "and the file ends there without a newline: it was cut short (delete this "
-                               "line to read the rest)")
+        how = ("ends like a number cut short" if cell.strip().endswith((".", "e", "E", "+", "-"))
+               else "is shorter than that column on the rows before")
+        raise MocapFormatError(src, line, f"{field}: {shown} {how} and the file ends there without a newline: "
+                               "it was cut short (delete this line to read the rest)")
     if verdict == "unknown":
         import warnings
 
