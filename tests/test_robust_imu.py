@@ -625,3 +625,21 @@ def test_peak_memory_stays_within_three_times_the_numbers(tmp_path: Path) -> Non
     numeric = n * 5 * 8
     growth = res["peak"] - res["base"]
     assert growth <= 3 * numeric + 40 * 2**20, (growth / numeric, res)
+
+
+def test_number_cut_after_its_point_with_one_row_before_is_an_error(tmp_path: Path) -> None:
+    """Found by the trial: ``xsens.txt`` cut to ``...\\t0.`` on its second data row. One row before it
+    says little about a column's decimals (rules (b)/(c) need two), but rule (a) needs none."""
+    text = (FORMATS / "xsens.txt").read_text()
+    lines = text.split("\n")
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("11\t"))
+    cut = "\n".join(lines[:k] + [lines[k][:lines[k].rindex(".") + 1]])
+    assert cut.endswith("\t0.")
+    p = _write(tmp_path / "xsens.txt", cut)
+    _where(_err(p), p, k + 1, "column Quat_z", "'0.'", "cut short")
+    with pytest.raises(MocapFormatError, match="cut short"):
+        list(iter_samples(io.StringIO(cut), "<s>"))
+    # the same row complete but without a line end is read as written, without a word
+    whole = "\n".join(lines[:k + 1])
+    sig = read_imu_file(_write(tmp_path / "whole.txt", whole))
+    assert len(next(iter(sig.values())).times) == 2

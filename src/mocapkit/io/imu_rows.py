@@ -16,7 +16,8 @@ missing-value convention, so an empty, ``nan`` or ``inf`` cell is an error there
 
 A file whose last line has no line end may have been cut short: a different number of fields on
 that line is an error (the message says so). Its last value is judged against the same column on
-the (up to) 20 rows before it (:func:`mocapkit.io.textinput.cut_cell`):
+the (up to) 20 rows before it (:func:`mocapkit.io.textinput.cut_cell`; with fewer than two rows
+before it, rule (a) alone):
 
 (a) it ends with ``.``, ``e``, ``E``, ``+`` or ``-`` (``0.`` for ``0.4``): an error;
 (b) it has fewer decimals (or exponent digits) than that column on every one of those rows, all
@@ -597,7 +598,7 @@ class RowReader:
     def _check_cut(self, body: str) -> None:
         lines = (self._tail + body.rsplit("\n", CUT_CONTEXT + 1))[-(CUT_CONTEXT + 1):]
         lines = [ln for ln in lines if ln.strip()]
-        if len(lines) < 3:     # two rows before it at least: one row says little about a column's format
+        if not lines:
             return
         self.check_cut_line([self.split(x) for x in lines[:-1]], lines[-1], self._final_ln)  # type: ignore[arg-type]
 
@@ -606,13 +607,13 @@ class RowReader:
         the module docstring): an error, or a warning in an unused column or when it is only shorter
         than others of a column written with varying decimals."""
         self._final_ln = ln
-        if len(prev_rows) < 2:
-            return
         fields = self.split(last)
         found = cut_cell(prev_rows, fields)
         if found is None:
             return
         j, verdict = found
+        if len(prev_rows) < 2 and not (verdict == "cut" and fields[j].strip().endswith(CUT_ENDINGS)):
+            return  # fewer than two rows before it say little about a column's format: rule (a) only
         name = self.lay.names[j] if j < len(self.lay.names) else f"column {j + 1}"
         cell = fields[j].strip()
         if verdict == "short":
