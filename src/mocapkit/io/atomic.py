@@ -36,7 +36,6 @@ import sys
 import tempfile
 import time
 from collections.abc import Iterable, Iterator
-from pathlib import Path
 from typing import IO
 
 FIFO_WAIT_S = 2.0
@@ -491,34 +490,3 @@ def check_output(path: str | os.PathLike[str] | None, inputs: Iterable[str | os.
         raise InvalidParameterError(f"{where}: the folder {parent} does not exist")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise InvalidParameterError(f"{where}: the folder {parent} is not writable")
-
-
-# --- reading ---------------------------------------------------------------------------------------
-
-def read_file_bytes(path: str | os.PathLike[str], what: str = "file") -> bytes:
-    """The bytes of ``path``; a missing, unreadable or folder path raises ``MocapFormatError``
-    naming it (``what`` says what was expected, e.g. ``"C3D file"``)."""
-    from mocapkit.errors import MocapFormatError
-
-    src = str(path)
-    try:
-        return Path(path).read_bytes()
-    except FileNotFoundError:
-        raise MocapFormatError(src, None, "no such file") from None
-    except IsADirectoryError:
-        raise MocapFormatError(src, None, f"is a folder, not a {what}") from None
-    except OSError as exc:
-        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
-
-
-def read_text_lines(path: str | os.PathLike[str], what: str = "file") -> tuple[list[str], str]:
-    """The lines of a text file and the encoding used: a UTF-8 BOM is dropped, CR/LF and CR line ends
-    become line breaks, UTF-8 is tried first, then Latin-1 (exports of Windows tools)."""
-    data = read_file_bytes(path, what)
-    if data.startswith(b"\xef\xbb\xbf"):
-        data = data[3:]
-    try:
-        text, enc = data.decode("utf-8"), "utf-8"
-    except UnicodeDecodeError:
-        text, enc = data.decode("latin-1"), "latin-1"
-    return text.replace("\r\n", "\n").replace("\r", "\n").split("\n"), enc

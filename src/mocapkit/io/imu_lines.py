@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from typing import BinaryIO
 
 from mocapkit.errors import MocapFormatError
+from mocapkit.io.textinput import open_error
 
 __all__ = ["CHUNK_BYTES", "MAX_LINE_BYTES", "Block", "check_line", "file_blocks", "open_input", "text_blocks"]
 
@@ -75,17 +76,13 @@ def open_input(path: str | os.PathLike[str], what: str = "file") -> tuple[Binary
     src = str(path)
     try:
         fh = open(path, "rb")  # noqa: SIM115 - the caller closes it
-    except FileNotFoundError:
-        raise MocapFormatError(src, None, "no such file") from None
-    except IsADirectoryError:
-        raise MocapFormatError(src, None, f"is a folder, not a {what}") from None
     except OSError as exc:
-        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
+        raise open_error(src, exc, what) from None
     try:
         st = os.fstat(fh.fileno())
     except OSError as exc:  # pragma: no cover - fstat of an open file does not fail in practice
         fh.close()
-        raise MocapFormatError(src, None, f"cannot read: {exc.strerror or exc}") from None
+        raise open_error(src, exc, what) from None
     if stat.S_ISDIR(st.st_mode):
         fh.close()
         raise MocapFormatError(src, None, f"is a folder, not a {what}")

@@ -38,7 +38,7 @@ from pathlib import Path
 from mocapkit.errors import MocapFormatError
 from mocapkit.io.numbers import NUMBER_RE, cut_kind
 
-__all__ = ["MAX_STREAM_BYTES", "MAX_HEADER_LINE", "read_input", "decode_text", "read_text",
+__all__ = ["MAX_STREAM_BYTES", "MAX_HEADER_LINE", "open_error", "read_input", "decode_text", "read_text",
            "split_lines", "cut_cell", "short_value_note", "final_line_verdict",
            "report_final_line", "check_cells_budget", "is_regular"]
 
@@ -49,7 +49,8 @@ MAX_HEADER_LINE = 1024 * 1024
 _CHUNK = 1024 * 1024
 
 
-def _open_error(src: str, exc: OSError, what: str) -> MocapFormatError:
+def open_error(src: str, exc: OSError, what: str) -> MocapFormatError:
+    """The reader's error for an input that cannot be opened or read (missing, a folder, no permission)."""
     if isinstance(exc, FileNotFoundError):
         return MocapFormatError(src, None, "no such file")
     if isinstance(exc, IsADirectoryError):
@@ -73,7 +74,7 @@ def read_input(path: str | os.PathLike[str], what: str = "file", *, text: bool =
     try:
         fh = open(path, "rb")  # noqa: SIM115 - closed below
     except OSError as exc:
-        raise _open_error(src, exc, what) from None
+        raise open_error(src, exc, what) from None
     with fh:
         try:
             st = os.fstat(fh.fileno())
@@ -104,7 +105,7 @@ def read_input(path: str | os.PathLike[str], what: str = "file", *, text: bool =
         except MocapFormatError:
             raise
         except OSError as exc:
-            raise _open_error(src, exc, what) from None
+            raise open_error(src, exc, what) from None
     if text:
         k = data.find(b"\0")
         if k >= 0:
