@@ -1,0 +1,52 @@
+"""Jobs: one plain function per job, from an input path plus options to a record.
+
+``info``, ``compress``, ``filter`` and ``segment`` are what the single-file commands print with ``--json``
+and what ``mocapkit batch`` runs on every file of a database (in worker processes or on a Dask cluster) and
+stores in Parquet and in the catalog. A job never prints; progress goes to an optional callback.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from mocapkit.errors import InvalidParameterError
+from mocapkit.jobs.compress import compress_job
+from mocapkit.jobs.filter import filter_job
+from mocapkit.jobs.info import info_job
+from mocapkit.jobs.segment import segment_job
+
+JOBS = {"info": info_job, "compress": compress_job, "filter": filter_job, "segment": segment_job}
+
+__all__ = ["JOBS", "batch_output", "compress_job", "filter_job", "info_job", "run_job", "segment_job"]
+
+
+def run_job(job: str, path: str | Path, options: dict, output: str | Path | None = None) -> dict:
+    """Run job ``job`` on ``path`` with ``options`` (the single-file command's options in snake case,
+    JSON-able values) writing its outputs to ``output`` (None: nothing written). Returns the record."""
+    if job not in JOBS:
+        raise InvalidParameterError(f"unknown job {job!r}: one of {', '.join(JOBS)}")
+    return JOBS[job](Path(path), output=None if output is None else Path(output), **options)
+
+
+def batch_output(job: str, path: str | Path, options: dict, base: str | Path) -> Path | None:
+    """Where ``mocapkit batch`` writes the output of ``job`` for ``path``, with the folders it needs made:
+    ``base`` is ``OUT/<relative folder>/<input stem>``. Compressed IMU points go to the folder
+    ``<base>.points`` (one CSV per sensor, whatever the number of sensors), a compressed skeleton to
+    ``<base>.glb``, filtered values to ``<base>.filtered.csv`` (``.filtered.c3d`` for a C3D input);
+    ``info`` and ``segment`` write nothing (their record is the result)."""
+    from mocapkit.io.loaders import kind_of
+
+    path, base = Path(path), Path(base)
+    if job == "compress":
+        if kind_of(path) == "skeletal":
+            out = base.with_name(base.name + ".glb")
+        else:
+            out = base.with_name(base.name + ".points")
+            out.mkdir(parents=True, exist_ok=True)
+    elif job == "filter":
+        keep_c3d = path.suffix.lower() == ".c3d" and not options.get("columns")
+        out = base.with_name(base.name + (".filtered.c3d" if keep_c3d else ".filtered.csv"))
+    else:
+        return None
+    out.parent.mkdir(parents=True, exist_ok=True)
+    return out

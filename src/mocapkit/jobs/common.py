@@ -1,0 +1,56 @@
+"""What every job shares: no-op progress, the IMU column overrides, output entries, the recording.
+
+A job is a plain function ``job(path, *, output=None, progress=None, **options) -> record``: it reads one
+input, runs an algorithm, writes the optional outputs (atomically, through :mod:`mocapkit.io.atomic`) and
+returns a record of JSON-able values. It never prints, so it runs the same in the command line, in a
+worker process of ``mocapkit batch`` or on a Dask worker.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from pathlib import Path
+from typing import Callable, ContextManager, Optional
+
+#: ``progress(what, total)`` -> a context manager yielding ``update(done, total=None)``
+Progress = Callable[[str, Optional[int]], ContextManager[Callable[..., None]]]
+
+
+@contextlib.contextmanager
+def no_progress(what: str, total: int | None = None):
+    """The default progress: nothing is shown."""
+    yield lambda done, n=None: None
+
+
+def imu_columns(time_column=None, quaternion_columns=None, scalar_last=False, time_unit=None) -> dict:
+    """The IMU header overrides as keyword arguments of ``load_signals``."""
+    return {"time_column": time_column, "quaternion_columns": quaternion_columns, "scalar_last": scalar_last,
+            "time_unit": time_unit}
+
+
+def output_entry(path: Path, fmt: str, bound: float | None = None, bound_unit: str | None = None) -> dict:
+    """One written output as the record lists it (``bytes`` is None for a device or pipe)."""
+    p = Path(path)
+    try:
+        st = os.stat(p)
+        size = st.st_size if p.is_file() else None
+    except OSError:
+        size = None
+    return {"path": str(p), "bytes": size, "format": fmt, "bound": bound, "bound_unit": bound_unit}
+
+
+def check_outputs(path: Path, *outputs: tuple[Optional[Path], str], inputs=(), folder: bool = False) -> None:
+    """Refuse, before any work, outputs that cannot be written or would overwrite an input
+    (:func:`mocapkit.io.atomic.check_output`); ``outputs`` are ``(path, option name)`` pairs."""
+    from mocapkit.io.atomic import check_output
+
+    for out, option in outputs:
+        check_output(out, [path, *inputs], folder=folder, option=option)
+
+
+def recording(obj, path: Path, fmt: str | None = None) -> dict:
+    """The catalog's description of the input (:func:`mocapkit.jobs.recording.describe`)."""
+    from mocapkit.jobs.recording import describe
+
+    return describe(obj, path, fmt)

@@ -1,0 +1,167 @@
+"""The ``compress`` job: orientation streams (IMU files, sensor folders) into segment points, or whole
+skeletons (BVH, AMC) into keyframes, by the piecewise linear approximations of :mod:`mocapkit.pla`."""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+from typing import TextIO
+
+from mocapkit.errors import InvalidParameterError
+from mocapkit.jobs.common import Progress, check_outputs, imu_columns, no_progress, output_entry, recording
+
+#: suffixes that name a file, not a folder (an IMU folder's output must be a folder)
+FILE_SUFFIXES = (".csv", ".txt", ".tsv", ".json", ".bvh", ".amc", ".glb", ".gltf", ".c3d", ".trc", ".mot", ".sto",
+                 ".png", ".parquet")
+
+
+@contextlib.contextmanager
+def naming_target_icr(target_icr):
+    """An unreachable ``--target-icr`` is reported under the option's name."""
+    from mocapkit.errors import UnreachableTargetError
+
+    try:
+        yield
+    except UnreachableTargetError as e:
+        raise InvalidParameterError(f"--target-icr {target_icr:g}: {e}") from None
+
+
+def _signal_record(name: str, source: str, comp, metrics, mode: str, target) -> dict:
+    return {
+        "name": name, "source": source, "method": comp.method, "mode": mode, "target": target,
+        "threshold": comp.threshold, "max_segment_length": comp.max_segment_length,
+        "n_samples": metrics.n_samples, "n_points": metrics.n_points, "icr": metrics.icr,
+        "mean_segment_length": metrics.mean_segment_length, "aad_deg": metrics.aad_deg,
+        "max_deg": metrics.max_deg, "std_deg": metrics.std_deg, "point_mean_deg": metrics.point_mean_deg,
+        "point_max_deg": metrics.point_max_deg,
+    }
+
+
+def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None = None,
+                 target_icr: float | None = None, max_angle: float | None = None,
+                 max_segment_length: int | None = None, rate: float | None = None, time_column: str | None = None,
+                 quaternion_columns: str | None = None, scalar_last: bool = False, time_unit: str | None = None,
+                 asf: Path | None = None, max_position_error: float | None = None, unit_cm: float | None = None,
+                 strict: bool = True, output: Path | None = None, points_stream: TextIO | None = None,
+                 discard_ok: bool = True, progress: Progress = no_progress) -> dict:
+    """Compress ``path`` and return the record of ``mocapkit compress --json``.
+
+    IMU input (exactly one of ``threshold``, ``target_icr``, ``max_angle``): points CSV ``time,w,x,y,z`` to
+    ``output`` (a folder of one CSV per sensor for a folder or a multi-sensor file), or to ``points_stream``
+    for one signal without ``output``. Skeletal input (one of ``threshold``, ``target_icr``,
+    ``max_position_error`` in cm): keyframes as ``.glb``/``.gltf`` or the decoded motion as ``.bvh``.
+    ``discard_ok=False`` refuses, before any work, a run whose points would go nowhere.
+    """
+    from mocapkit.io.loaders import kind_of
+
+    path = Path(path)
+    output = None if output is None else Path(output)
+    check_outputs(path, (output, "--output"), inputs=(asf,),
+                  folder=path.is_dir() or (output is not None and output.is_dir()))
+    if kind_of(path) == "skeletal":
+        if output is None and not discard_ok:
+            raise InvalidParameterError(
+                f"{path}: give -o OUT.glb|OUT.gltf|OUT.bvh to keep the compressed clip "
+                "(or --json / --stats-only to print only the numbers)")
+        return _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle,
+                         max_segment_length, rate, asf, unit_cm, strict, progress)
+    if max_position_error is not None or asf is not None or unit_cm is not None:
+        raise InvalidParameterError("--max-position-error, --asf and --unit-cm apply to BVH/AMC input")
+    return _imu(path, output, method, threshold, target_icr, max_angle, max_segment_length, rate,
+                imu_columns(time_column, quaternion_columns, scalar_last, time_unit), points_stream, discard_ok,
+                progress)
+
+
+def _imu(path, output, method, threshold, target_icr, max_angle, max_segment_length, rate, columns,
+         points_stream, discard_ok, progress) -> dict:
+    from mocapkit.io import load_signals, write_signal_csv
+    from mocapkit.io.atomic import is_device_or_pipe
+    from mocapkit.pla import compress_to, evaluate
+
+    if sum(x is not None for x in (threshold, target_icr, max_angle)) != 1:
+        raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-angle")
+    signals = load_signals(path, rate=rate, **columns)
+    # one CSV per sensor: a folder, a file of several sensors, or an existing folder as the output
+    folder_mode = path.is_dir() or len(signals) > 1 or (output is not None and output.is_dir())
+    what = "a folder" if path.is_dir() else f"a file of {len(signals)} sensor{'s' * (len(signals) > 1)}"
+    if folder_mode and output is not None and output.exists() and not output.is_dir():
+        raise InvalidParameterError(f"{output}: INPUT is {what}, so --output must be a folder")
+    if folder_mode and output is None and not discard_ok:
+        raise InvalidParameterError(
+            f"{path} is {what}: give -o FOLDER to keep the segment points (one CSV per sensor), "
+            "or --json / --stats-only to print only the numbers")
+    if output is not None and folder_mode and output.suffix.lower() in FILE_SUFFIXES:
+        raise InvalidParameterError(f"{output}: INPUT is {what}, so --output is a folder (one CSV per sensor), "
+                                    f"not a {output.suffix} file")
+    if output is not None and not folder_mode and output.suffix.lower() != ".csv" and not is_device_or_pipe(output):
+        raise InvalidParameterError(f"{output}: segment points are written as .csv")
+    mode, target = (("threshold", threshold) if threshold is not None
+                    else ("target_icr", target_icr) if target_icr is not None else ("max_angle", max_angle))
+    comps = {}
+    with progress(f"compressing {path.name}", len(signals)) as update:
+        for i, (name, sig) in enumerate(signals.items()):
+            with naming_target_icr(target_icr):
+                comps[name] = compress_to(sig, method, threshold=threshold, target_icr=target_icr,
+                                          max_angle=max_angle, max_segment_length=max_segment_length)
+            update(i + 1)
+    records, outputs = [], []
+    bound, unit = {"max_angle": (max_angle, "deg")}.get(mode, (None, None))
+    for name, sig in signals.items():
+        comp = comps[name]
+        records.append(_signal_record(name, sig.source, comp, evaluate(sig, comp), mode, target))
+        if output is not None:
+            dest = output / f"{name}.csv" if folder_mode else output
+            if folder_mode:
+                output.mkdir(exist_ok=True)  # one new level; its parent was checked before any work
+            write_signal_csv(dest, comp.times, comp.values)
+            outputs.append(output_entry(dest, "csv", bound, unit))
+        elif points_stream is not None and not folder_mode:
+            points_stream.write("time,w,x,y,z\n")
+            for t, v in zip(comp.times.tolist(), comp.values.tolist()):
+                points_stream.write(",".join(repr(x) for x in (t, *v)) + "\n")
+    warnings = []
+    for sig in signals.values():
+        for w in sig.meta.get("warnings", []):
+            if f"{sig.source}: {w}" not in warnings:
+                warnings.append(f"{sig.source}: {w}")
+    skipped = sorted({f for s in signals.values() for f in s.meta.get("skipped_files", [])})
+    return {"job": "compress", "file": str(path), "kind": "imu", "method": method, "mode": mode, "target": target,
+            "signals": records, "warnings": warnings, "skipped_files": skipped, "outputs": outputs,
+            "recording": recording(signals, path)}
+
+
+def _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle, max_segment_length,
+              rate, asf, unit_cm, strict, progress) -> dict:
+    from mocapkit.io.bvh import write_bvh
+    from mocapkit.io.gltf import write_gltf
+    from mocapkit.io.loaders import load_motion, unit_cm as find_unit
+    from mocapkit.pla.skeletal import compress_motion, report, verify_position_bound
+
+    if max_angle is not None:
+        raise InvalidParameterError("for skeletal input use --max-position-error CM (or --threshold / --target-icr)")
+    if sum(x is not None for x in (threshold, target_icr, max_position_error)) != 1:
+        raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-position-error")
+    if output is not None and output.suffix.lower() not in (".glb", ".gltf", ".bvh"):
+        raise InvalidParameterError(f"{output}: skeletal output is .glb, .gltf or .bvh")
+    motion = load_motion(path, asf=asf, rate=rate, strict=strict)
+    ucm, assumed = find_unit(motion, unit_cm)
+    bound = None if max_position_error is None else max_position_error / ucm
+    steps = None if threshold is not None else 41 if target_icr is not None else 15
+    with progress(f"compressing {path.name}", steps) as update, naming_target_icr(target_icr):
+        comp = compress_motion(motion, method, threshold=threshold, target_icr=target_icr,
+                               max_position_error=bound, max_segment_length=max_segment_length, progress=update)
+        if bound is not None:
+            verify_position_bound(motion, comp, bound)
+    rec = {"job": "compress", "file": str(path), "kind": "skeletal", **report(comp, ucm), "unit_cm_assumed": assumed,
+           "warnings": list(motion.meta.get("warnings", [])), "outputs": []}
+    if output is not None:
+        if output.suffix.lower() == ".bvh":
+            write_bvh(output, comp.decode(), precision=6)
+        else:
+            write_gltf(output, comp, unit_m=ucm / 100.0, name=path.stem)
+        rec["output"] = str(output)
+        rec["file_bytes"] = output.stat().st_size
+        rec["outputs"].append(output_entry(output, output.suffix.lower()[1:], max_position_error,
+                                           None if max_position_error is None else "cm"))
+    rec["recording"] = recording(motion, path)
+    return rec

@@ -1,0 +1,113 @@
+"""The ``segment`` job: a take cut into actions from its limb-bone angles (the ARMA method of
+:mod:`mocapkit.segment.arma` or one of the baselines), scored against reference labels when given."""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from mocapkit.errors import InvalidParameterError
+from mocapkit.jobs.common import Progress, check_outputs, no_progress, output_entry, recording
+
+
+def pairs(items, what: str) -> list[tuple[str, str]]:
+    """``A=B`` strings as pairs (``--joint ROLE=JOINT``, ``--train MOTION=LABELS``)."""
+    out = []
+    for it in items or []:
+        if "=" not in it:
+            raise InvalidParameterError(f"{what}: expected A=B, got {it!r}")
+        a, b = it.split("=", 1)
+        out.append((a.strip(), b.strip()))
+    return out
+
+
+def segments_of(cuts, n_frames: int, rate_hz: float, ref=None) -> list[dict]:
+    """The segments between consecutive cuts; ``label`` is the reference label covering most of the
+    segment's frames when a reference is given, else None."""
+    bounds = [0, *[int(c) for c in cuts], int(n_frames)]
+    frame_labels = None if ref is None else np.asarray(ref.labels, dtype=object)[ref.frame_labels()]
+    out = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        label = None
+        if frame_labels is not None and b > a:
+            label = str(Counter(frame_labels[a:b].tolist()).most_common(1)[0][0])
+        out.append({"t0": a / rate_hz, "t1": b / rate_hz, "frame0": a, "frame1": b, "label": label})
+    return out
+
+
+def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", labels: Path | None = None,
+                joint: list[str] | None = None, train: list[str] | None = None, rate: float | None = None,
+                downsample: int | None = None, output: Path | None = None, plot: Path | None = None,
+                progress: Progress = no_progress) -> dict:
+    """Segment the BVH/AMC take ``path`` with ``method`` and return the record of ``mocapkit segment
+    --json`` (cuts in frames and seconds, the segments between them; ``reference_cuts`` and ``scores``
+    against ``labels``). ``output`` is unused (the cuts are the record); ``plot``: a PNG of the limb angles
+    with the cuts."""
+    from mocapkit.io.labels import read_reference
+    from mocapkit.io.loaders import load_motion
+    from mocapkit.segment.features import LIMB_NAMES, motion_features, pose_features
+
+    path = Path(path)
+    plot = None if plot is None else Path(plot)
+    train_files = [Path(x.strip()) for it in train or [] for x in it.split("=", 1)]
+    check_outputs(path, (plot, "--plot"), inputs=(asf, labels, *train_files))
+    motion = load_motion(path, asf=asf, rate=rate)
+    rate_hz = float(motion.rate)
+    warnings = list(motion.meta.get("warnings", []))
+    ref = None
+    if labels is not None:  # read and checked against the take before any segmenting
+        ref = read_reference(Path(labels), motion.n_frames, rate_hz)
+        warnings += list(ref.warnings)
+    jmap = dict(pairs(joint, "--joint"))
+    feats = motion_features(motion, jmap)
+    if method == "arma":
+        from mocapkit.segment.arma import ARMASegmenter
+
+        ds = downsample if downsample is not None else max(1, int(round(rate_hz / 30.0)))
+        seg = ARMASegmenter(downsample=ds)
+    else:
+        if downsample is not None:
+            raise InvalidParameterError("--downsample is an option of --method arma")
+        from mocapkit.segment import BASELINES
+
+        if method not in BASELINES:
+            raise InvalidParameterError(f"--method {method!r}: one of arma, {', '.join(BASELINES)}")
+        kw = {}
+        if method == "mlp":
+            if not train:
+                raise InvalidParameterError("--method mlp is supervised: give labelled takes with --train MOTION=LABELS")
+            data = []
+            for mot, lab in pairs(train, "--train"):
+                tm = load_motion(mot, asf=asf, rate=rate)
+                tref = read_reference(Path(lab), tm.n_frames, tm.rate)
+                warnings += list(tref.warnings)
+                data.append((motion_features(tm, jmap).limbs,
+                             np.asarray(tref.labels, dtype=object)[tref.frame_labels()]))
+            kw["train"] = data
+        elif train:
+            raise InvalidParameterError("--train is only for --method mlp")
+        from mocapkit.evaluation.segmentation import rate_scaled
+
+        kw.update(rate_scaled(method, rate_hz))  # the baselines' 120 Hz frame counts at this rate
+        seg = BASELINES[method](**kw)
+    X = pose_features(motion) if method == "pca" else feats.limbs
+    with progress(f"segmenting {path.name} ({method})", None):
+        cuts = seg.fit_predict(X)
+    rec = {"job": "segment", "file": str(path), "kind": "skeletal", "method": method, "n_frames": motion.n_frames,
+           "rate_hz": rate_hz, "cuts": [{"frame": int(c), "time_s": float(c) / rate_hz} for c in cuts],
+           "segments": segments_of(cuts, motion.n_frames, rate_hz, ref), "warnings": warnings, "outputs": []}
+    if ref is not None:
+        from mocapkit.evaluation.segmentation import score
+
+        rec["reference_cuts"] = [int(c) for c in ref.cuts]
+        rec["scores"] = score(cuts, ref)
+    if plot is not None:
+        from mocapkit.plot import plot_segmentation
+
+        plot_segmentation(feats.limbs, rate_hz, cuts, plot, ref_cuts=None if ref is None else ref.cuts,
+                          names=list(LIMB_NAMES), title=f"{path.name}: {method}")
+        rec["outputs"].append(output_entry(plot, "png"))
+    rec["recording"] = recording(motion, path)
+    return rec
