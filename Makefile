@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 
-.PHONY: demo test bench bench-imu sweep fuzz clean
+.PHONY: demo test bench bench-imu sweep fuzz clean pg-start pg-stop
 
 $(STAMP): pyproject.toml Makefile
 	$(PY) -m venv $(VENV)
@@ -42,6 +42,15 @@ FUZZ_JOBS ?= 2
 FUZZ_OUT ?= build/trial
 fuzz: $(STAMP)
 	$(BIN)/python tools/trial.py --cases $(FUZZ_CASES) --jobs $(FUZZ_JOBS) --out $(FUZZ_OUT)
+
+# a throw-away PostgreSQL for the catalog tests (127.0.0.1:$$MOCAPKIT_PG_PORT, default 54329); then
+#   export MOCAPKIT_TEST_PG=postgresql://postgres@127.0.0.1:54329/mocapkit_test   (printed by pg-start)
+pg-start:
+	tools/pg_test_server.sh install
+	tools/pg_test_server.sh start
+
+pg-stop:
+	tools/pg_test_server.sh stop
 
 clean:
 	rm -rf $(VENV) build src/*.egg-info

@@ -282,7 +282,7 @@ def test_bad_parameters():
 def test_juggling_flights_fall_at_g(shared_data):
     """The report's K = 100 mm on the full take still works."""
     from mocapkit.evaluation.filtering import evaluate_juggling
-    from mocapkit.markers import load_markers
+    from mocapkit.io import load_markers
 
     m = load_markers(shared_data / "juggling" / "5-ball-juggling-qualisys-300hz.tsv")
     out = evaluate_juggling(m, ["unnamed_6", "unnamed_10"], penalty=100.0)
@@ -297,7 +297,7 @@ def test_cli_filter_auto_on_juggling_take(shared_data):
     """``filter --auto`` on the full shared take (4,967 frames at 300 Hz): the five balls' flights fall
     within 5 % of g, the five base markers get no knot. ~1 min on one core."""
     from mocapkit.evaluation.filtering import flights, moving_markers
-    from mocapkit.markers import load_markers
+    from mocapkit.io import load_markers
 
     tsv = shared_data / "juggling" / "5-ball-juggling-qualisys-300hz.tsv"
     m = load_markers(tsv)
@@ -334,7 +334,7 @@ def test_filter_eval_other_marker_names(tests_data, tmp_path):
     lines[hdr] = lines[hdr].replace("base_", "Table")
     tsv = tmp_path / "other.tsv"
     tsv.write_text("\n".join(lines) + "\n")
-    from mocapkit.markers import load_markers
+    from mocapkit.io import load_markers
 
     labels = load_markers(tsv).labels
     assert "Table1" in labels and not any(lab.startswith("base") for lab in labels)

@@ -16,9 +16,10 @@ from hypothesis import strategies as st
 from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.c3d import check_c3d_structure, read_c3d, write_c3d
 from mocapkit.io.qtm import read_qtm_tsv, read_qtm_tsv_text
-from mocapkit.io.loaders import kind_of
+from mocapkit.io.loaders import kind_of, load_markers, write_markers
+from mocapkit.io.marker_csv import read_markers_csv, write_markers_csv
 from mocapkit.io.vicon_csv import read_vicon_csv
-from mocapkit.markers import Markers, load_markers, make_unique_labels, read_markers_csv, write_markers
+from mocapkit.markers import Markers, make_unique_labels
 
 ezc3d = pytest.importorskip("ezc3d")
 
@@ -40,20 +41,104 @@ def _markers(n=4, labels=("a", "b"), rate=100.0, **kw) -> Markers:
 # ==================================================================================================
 
 
-def test_model_modules_import_no_io_at_module_level():
-    """Imports point down: the data model (motion, skeleton, markers, quat, errors) imports
-    mocapkit.io only inside functions."""
+MODEL_MODULES = ("mocapkit.motion", "mocapkit.skeleton", "mocapkit.markers", "mocapkit.quat", "mocapkit.errors")
+
+
+def _mocapkit_imports(tree, module: str, known: set[str]) -> set[str]:
+    """The ``known`` modules that a parsed source file imports anywhere (function bodies, ``if`` blocks,
+    ``TYPE_CHECKING`` blocks too): ``import a.b``, ``from a import b`` (``a.b`` when it is a module,
+    else ``a``), relative imports resolved against ``module``."""
+    import ast
+
+    package = module.rsplit(".", 1)[0]
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parts = package.split(".")
+                parts = parts[: len(parts) - (node.level - 1)]
+                base = ".".join(parts + ([base] if base else []))
+            names = [base] + [f"{base}.{a.name}" for a in node.names]
+        else:
+            continue
+        found.update(n for n in names if n in known)
+    return found
+
+
+def _import_graph() -> dict[str, set[str]]:
+    """``{module: modules it imports anywhere}`` over every module of the mocapkit package."""
     import ast
 
     import mocapkit
 
-    src = Path(mocapkit.__file__).parent
-    for name in ("motion", "skeleton", "markers", "quat", "errors"):
-        tree = ast.parse((src / f"{name}.py").read_text())
-        for node in tree.body:
-            mods = ([a.name for a in node.names] if isinstance(node, ast.Import)
-                    else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
-            assert not any(m == "mocapkit.io" or m.startswith("mocapkit.io.") for m in mods), (name, mods)
+    root = Path(mocapkit.__file__).parent
+    files = {}
+    for f in sorted(root.rglob("*.py")):
+        parts = ("mocapkit",) + f.relative_to(root).with_suffix("").parts
+        files[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = f
+    known = set(files)
+    graph = {}
+    for name, f in files.items():
+        mod = name if f.name != "__init__.py" else name + ".__init__"
+        graph[name] = _mocapkit_imports(ast.parse(f.read_text()), mod, known) - {name}
+    return graph
+
+
+def _reachable(graph: dict[str, set[str]], start: str) -> set[str]:
+    seen, todo = set(), [start]
+    while todo:
+        for nxt in graph.get(todo.pop(), ()):
+            if nxt not in seen:
+                seen.add(nxt)
+                todo.append(nxt)
+    return seen
+
+
+def _is_io(name: str) -> bool:
+    return name == "mocapkit.io" or name.startswith("mocapkit.io.")
+
+
+def test_import_walk_sees_lazy_and_relative_imports():
+    """The checker below could pass vacuously if it missed imports: it must see one inside a function, in
+    a ``TYPE_CHECKING`` block and a relative one, and find the real edges io -> model."""
+    import ast
+
+    known = {"mocapkit.io", "mocapkit.io.atomic", "mocapkit.io.loaders", "mocapkit.markers", "mocapkit.errors"}
+    src = ("from mocapkit.errors import MocapError\n"
+           "if TYPE_CHECKING:\n    from .io import loaders\n"
+           "def f():\n    import mocapkit.io.atomic as a\n    return a\n")
+    assert _mocapkit_imports(ast.parse(src), "mocapkit.markers", known) == {
+        "mocapkit.errors", "mocapkit.io", "mocapkit.io.loaders", "mocapkit.io.atomic"}
+    graph = _import_graph()
+    assert "mocapkit.markers" in graph["mocapkit.io.c3d"]  # module level
+    assert "mocapkit.io.marker_csv" in graph["mocapkit.io.loaders"]  # inside load_markers/write_markers
+    assert "mocapkit.io.atomic" in graph["mocapkit.io.marker_csv"]
+
+
+def test_model_modules_import_no_io_at_all():
+    """Imports point down: the data model (motion, skeleton, markers, quat, errors) imports no
+    mocapkit.io module anywhere -- not at module level, not lazily inside a function -- neither itself
+    nor through any mocapkit module it imports."""
+    graph = _import_graph()
+    for name in MODEL_MODULES:
+        direct = sorted(m for m in graph[name] if _is_io(m))
+        assert not direct, (name, direct)
+        through = sorted(m for m in _reachable(graph, name) if _is_io(m))
+        assert not through, (name, through)
+
+
+def test_no_import_cycle_between_model_and_io():
+    """No model module and io module reach each other through imports (lazy ones included), so the
+    io readers may import the model at module level."""
+    graph = _import_graph()
+    io_modules = [m for m in graph if _is_io(m)]
+    assert len(io_modules) > 10
+    for io_mod in io_modules:
+        back = sorted(m for m in _reachable(graph, io_mod) if m in MODEL_MODULES and io_mod in _reachable(graph, m))
+        assert not back, (io_mod, back)
 
 
 def test_markers_basic_properties():
@@ -129,11 +214,11 @@ def test_make_unique_labels_is_deterministic_and_never_drops():
 # ==================================================================================================
 
 
-def test_to_csv_layout_and_round_trip(tmp_path):
+def test_write_markers_csv_layout_and_round_trip(tmp_path):
     p = np.array([[[1.5, -2.0, 3.0], [np.nan] * 3], [[0.1, 0.2, 0.30000000000000004], [7.0, 8.0, 9.0]]])
     m = Markers([0.0, 1 / 3], p, ("RASI", "L,ASI"), 3.0, units="m")
     out = tmp_path / "m.csv"
-    m.to_csv(out)
+    write_markers_csv(m, out)
     text = out.read_text()
     lines = text.split("\n")
     assert lines[0] == 'time (s),RASI_x (m),RASI_y (m),RASI_z (m),"L,ASI_x (m)","L,ASI_y (m)","L,ASI_z (m)"'
@@ -161,7 +246,7 @@ def test_to_csv_layout_and_round_trip(tmp_path):
 
 def test_csv_round_trip_of_real_tsv_excerpt(tmp_path):
     m = read_qtm_tsv(EXCERPT)
-    m.to_csv(tmp_path / "j.csv")
+    write_markers_csv(m, tmp_path / "j.csv")
     back = load_markers(tmp_path / "j.csv")
     assert back.labels == m.labels
     assert back.rate == pytest.approx(300.0, rel=1e-4)
@@ -902,7 +987,7 @@ def test_vicon_csv_dispatch_keeps_the_other_csv_readers(tmp_path, tests_data):
     generic = tests_data / "formats" / "generic.csv"
     assert kind_of(generic) == "imu" and len(load_signals(generic)) == 1
     wide = tmp_path / "wide.csv"
-    _random_markers(n=5, m=2).to_csv(wide)
+    write_markers_csv(_random_markers(n=5, m=2), wide)
     assert kind_of(wide) == "markers" and load_markers(wide).meta["format"] == "csv"
 
 

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io.loaders import kind_of, load_markers
+from mocapkit.io.marker_csv import write_markers_csv
 from mocapkit.io.opensim import (
     read_opensim_signals,
     read_orientations,
@@ -363,7 +364,7 @@ def test_cli_filter_output_markers_keeps_labels_rate_units_gaps(tmp_path, suffix
     base = np.stack([np.stack([100 * np.sin(t + k), 50 * t + k, 10 * t**2], axis=1) for k in range(2)], axis=1)
     p = base + rng.normal(scale=0.5, size=base.shape)
     p[40:45, 1] = np.nan  # a gap
-    Markers(t, p, ("Sub:LASI", "RASI"), 100.0, units="mm").to_csv(src.with_suffix(".csv"))
+    write_markers_csv(Markers(t, p, ("Sub:LASI", "RASI"), 100.0, units="mm"), src.with_suffix(".csv"))
     write_trc(Markers(t, p, ("Sub:LASI", "RASI"), 100.0, units="mm"), src)
     out = tmp_path / f"out{suffix}"
     r = run("filter", src, "--penalty", "50", "-o", out)

@@ -164,3 +164,42 @@ def test_bad_input_and_unknown_job_are_errors(tmp_path, files):
     with pytest.raises(InvalidParameterError, match="exactly one"):
         run_job("compress", files["imu"], {"threshold": 0.1, "max_angle": 1.0})
     assert set(JOBS) == {"info", "compress", "filter", "segment"}
+
+
+def test_jobs_say_which_inputs_they_do_not_read(files, tests_data):
+    from mocapkit.jobs import not_read_by
+
+    expect = {  # (job, file) -> does the job read it, by the commands' own rules
+        ("info", "bvh"): True, ("info", "tsv"): True, ("info", "imu"): True, ("info", "amc"): True,
+        ("compress", "bvh"): True, ("compress", "imu"): True, ("compress", "tsv"): False,
+        ("filter", "tsv"): True, ("filter", "imu"): True, ("filter", "bvh"): False, ("filter", "amc"): False,
+        ("segment", "bvh"): True, ("segment", "amc"): True, ("segment", "tsv"): False, ("segment", "imu"): False,
+    }
+    for (job, key), reads in expect.items():
+        why = not_read_by(job, files[key])
+        assert (why is None) == reads, (job, key, why)
+        if why is not None:
+            assert why.startswith(f"{job} reads ")
+    # a job refused by not_read_by indeed fails on that input (the rule is not stricter than the job)
+    with pytest.raises(MocapError):
+        run_job("segment", files["tsv"], {})
+    with pytest.raises(MocapError):
+        run_job("filter", files["bvh"], {"auto": True})
+    assert not_read_by("filter", tests_data / "imu" / "xio") is not None
+
+
+def test_batch_lists_inputs_the_job_does_not_read_as_skipped(files, tmp_path):
+    import shutil
+
+    from mocapkit.batch.engine import run_batch
+
+    src = tmp_path / "in"
+    src.mkdir()
+    for key in ("amc", "asf", "tsv", "imu"):
+        shutil.copy(files[key], src / files[key].name)
+    res = run_batch("segment", [src], {"asf": str(src / files["asf"].name), "rate": 15.0}, tmp_path / "out", jobs=1)
+    assert [Path(r["input"]).name for r in res.rows] == [files["amc"].name]
+    assert res.rows[0]["status"] == "ok", res.rows[0]["error"]
+    skipped = {Path(p).name: why for p, why in res.skipped}
+    assert set(skipped) == {files["tsv"].name, files["imu"].name, files["asf"].name}
+    assert skipped[files["tsv"].name] == "segment reads skeletons; this is marker files"

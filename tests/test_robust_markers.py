@@ -33,7 +33,8 @@ from mocapkit.io.mvnx import read_mvnx
 from mocapkit.io.opensim import read_opensim_signals, read_table, read_trc
 from mocapkit.io.qtm import read_qtm_tsv
 from mocapkit.io.vicon_csv import read_vicon_csv
-from mocapkit.markers import Markers, read_markers_csv
+from mocapkit.io.marker_csv import read_markers_csv, write_markers_csv
+from mocapkit.markers import Markers
 
 DATA = Path(__file__).resolve().parent / "data"
 TSV = DATA / "markers" / "juggling-qualisys-300hz-first120.tsv"
@@ -451,14 +452,14 @@ def test_vicon_cut_short(tmp_path):
 def test_wide_csv_strict_numbers_and_cut(tmp_path):
     m = read_trc(TRC)
     f = tmp_path / "w.csv"
-    m.to_csv(f)
+    write_markers_csv(m, f)
     back = read_markers_csv(f, rate=m.rate)
     np.testing.assert_array_equal(np.nan_to_num(back.positions, nan=7), np.nan_to_num(m.positions, nan=7))
     lines = f.read_text().split("\n")
     for token, problem in BAD_NUMBERS:
         bad = list(lines)
         bad[3] = _replace_cell(bad[3], 2, token, ",")
-        if token == "nan":  # the wide CSV's gap (to_csv writes it)
+        if token == "nan":  # the wide CSV's gap (write_markers_csv writes it)
             assert read_markers_csv(_write(tmp_path, "gap.csv", bad)).missing[2, 0]
             continue
         e = _error(read_markers_csv, _write(tmp_path, "bad.csv", bad))

@@ -10,7 +10,7 @@ from scipy.signal import lfilter
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError
 from mocapkit.segment.base import Segmenter
-from mocapkit.segment.baselines import (
+from mocapkit.segment import (
     BASELINES,
     ClaSPSegmenter,
     KernelCPDSegmenter,
@@ -18,10 +18,9 @@ from mocapkit.segment.baselines import (
     MLPSegmenter,
     PCASegmenter,
     PELTSegmenter,
-    _merge_short_runs,
-    _mode_filter,
-    _prefix_cost,
 )
+from mocapkit.segment.labelruns import merge_short_runs, mode_filter
+from mocapkit.segment.pelt import _prefix_cost
 
 # --------------------------------------------------------------------------------------------------
 # a piecewise-stationary synthetic signal
@@ -467,9 +466,9 @@ def test_pca_cut_waits_for_warm_up_and_min_segment():
 
 def test_mode_filter():
     codes = np.array([0, 0, 0, 1, 0, 0, 2, 2, 2, 2, 0, 2, 2])
-    out = _mode_filter(codes, 3, 3)
+    out = mode_filter(codes, 3, 3)
     np.testing.assert_array_equal(out, [0, 0, 0, 0, 0, 0, 2, 2, 2, 2, 2, 2, 2])
-    np.testing.assert_array_equal(_mode_filter(codes, 3, 1), codes)
+    np.testing.assert_array_equal(mode_filter(codes, 3, 1), codes)
 
 
 def test_merge_short_runs_rule():
@@ -477,16 +476,16 @@ def test_merge_short_runs_rule():
     codes = np.array([0] * 5 + [1] * 2 + [0] * 1 + [2] * 6)
     # the 1-run of 0 (shortest) joins its longer neighbour, the 2s (now 7 long); then the 2-run of
     # 1s joins its longer neighbour, again the 2s
-    out = _merge_short_runs(codes, 3)
+    out = merge_short_runs(codes, 3)
     np.testing.assert_array_equal(out, [0] * 5 + [2] * 9)
     # a short run between two runs of one label makes them one run
     codes = np.array([3] * 4 + [1] * 2 + [3] * 5)
-    np.testing.assert_array_equal(_merge_short_runs(codes, 3), [3] * 11)
+    np.testing.assert_array_equal(merge_short_runs(codes, 3), [3] * 11)
     # on a tie the preceding neighbour wins
     codes = np.array([0] * 4 + [1] * 1 + [2] * 4)
-    np.testing.assert_array_equal(_merge_short_runs(codes, 2), [0] * 5 + [2] * 4)
+    np.testing.assert_array_equal(merge_short_runs(codes, 2), [0] * 5 + [2] * 4)
     # everything short: one run is left
-    assert np.unique(_merge_short_runs(np.arange(10) % 3, 50)).size == 1
+    assert np.unique(merge_short_runs(np.arange(10) % 3, 50)).size == 1
 
 
 def test_kmeans_segments_respect_min_segment(signal):

@@ -45,8 +45,8 @@ def test_segment_equals_library(excerpt):
     """The command reports exactly what the library computes on the same features."""
     from mocapkit.io.loaders import load_motion
     from mocapkit.segment.arma import ARMASegmenter
-    from mocapkit.segment.baselines import KMeansSegmenter
     from mocapkit.segment.features import motion_features
+    from mocapkit.segment.kmeans import KMeansSegmenter
 
     amc, asf, _ = excerpt
     limbs = motion_features(load_motion(amc, asf=asf, rate=15)).limbs
@@ -137,7 +137,7 @@ def test_tssb_settings_and_embedding():
 
 
 def test_read_reference_detects_the_format(tmp_path):
-    from mocapkit.cli import _read_reference
+    from mocapkit.io.labels import read_reference as _read_reference
 
     haca = tmp_path / "h.txt"
     haca.write_text("86 01\nwalk 40 50 60\njump 100 100 100\n")

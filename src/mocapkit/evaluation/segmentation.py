@@ -136,7 +136,7 @@ def make_segmenter(method: str, take: Take | None = None, others: list[Take] | N
     """A segmenter with the benchmark's settings (the library defaults, scaled to the take's rate by
     :func:`rate_scaled`; MLP trained on ``others``)."""
     from mocapkit.segment.arma import ARMASegmenter
-    from mocapkit.segment.baselines import BASELINES
+    from mocapkit.segment import BASELINES
 
     kw = rate_scaled(method, take.ref.rate_hz) if take is not None else {}
     if method == "arma":
@@ -227,7 +227,7 @@ def tssb_segmenter(method: str, n: int, w: int):
     (``5·w``, ClaSP's own exclusion zone) instead of the 1 s of mocap; PELT runs on every
     ``ceil(n / 8000)``-th sample of long series (its cost grows with n² without pruning)."""
     from mocapkit.segment.arma import ARMASegmenter
-    from mocapkit.segment.baselines import BASELINES
+    from mocapkit.segment import BASELINES
 
     if method == "arma":
         return ARMASegmenter(downsample=1)

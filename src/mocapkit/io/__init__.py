@@ -18,13 +18,16 @@ from mocapkit.io.imucsv import (
 )
 
 from mocapkit.io.loaders import kind_of, load, load_markers, load_motion, write_markers  # also registers .sto/.mot
+from mocapkit.io.marker_csv import read_markers_csv, write_markers_csv
 
 __all__ = [
     "kind_of",
     "load",
     "load_markers",
     "load_motion",
+    "read_markers_csv",
     "write_markers",
+    "write_markers_csv",
     "ACCEPTED_HEADERS",
     "ColumnOptions",
     "READERS",

@@ -19,7 +19,7 @@ def kind_of(path: str | Path) -> str:
     """``"skeletal"``, ``"markers"``, ``"table"`` or ``"imu"`` (folders and everything else are IMU data).
 
     A ``.csv`` is ``"markers"`` when it is a Vicon Nexus export (first line ``Trajectories`` or
-    ``Devices``) or the wide CSV of :meth:`Markers.to_csv` (``time (s),<m>_x (mm),<m>_y (mm),...``); a
+    ``Devices``) or the wide CSV of :func:`~mocapkit.io.marker_csv.write_markers_csv` (``time (s),<m>_x (mm),...``); a
     ``.mot``/``.sto`` is ``"imu"`` when it holds OpenSense orientations (``DataType=Quaternion``),
     else ``"table"`` (one vector signal, e.g. joint angles).
     """
@@ -97,8 +97,6 @@ def load(path: str | Path, **options):
             raise TypeError(f"load() of a skeletal file takes {sorted(allowed)}, not {bad}")
         return load_motion(path, **options)
     if kind == "markers":
-        from mocapkit.markers import load_markers
-
         if options:
             raise TypeError(f"load() of a marker file takes no options, got {sorted(options)}")
         return load_markers(path)
@@ -113,7 +111,7 @@ def load(path: str | Path, **options):
 
 
 def _marker_csv(path: Path) -> str | None:
-    """``"vicon"`` for a Vicon Nexus CSV export, ``"wide"`` for the CSV of ``Markers.to_csv``."""
+    """``"vicon"`` for a Vicon Nexus CSV export, ``"wide"`` for the CSV of ``write_markers_csv``."""
     from mocapkit.io.vicon_csv import is_vicon_csv
 
     if is_vicon_csv(path):
@@ -133,7 +131,7 @@ def _marker_csv(path: Path) -> str | None:
 def load_markers(path: str | Path):
     """Read a marker file: ``.c3d`` (ezc3d), ``.tsv`` (Qualisys), ``.trc`` (OpenSim), ``.csv`` (a Vicon
     Nexus export when its first line is ``Trajectories``/``Devices``, else the wide CSV of
-    :meth:`mocapkit.markers.Markers.to_csv`). Raises :class:`MocapFormatError` for a missing file, an
+    :func:`mocapkit.io.marker_csv.write_markers_csv`). Raises :class:`MocapFormatError` for a missing file, an
     unknown suffix or bad content."""
     p = Path(path)
     if not p.exists():
@@ -158,7 +156,7 @@ def load_markers(path: str | Path):
             from mocapkit.io.vicon_csv import read_vicon_csv
 
             return read_vicon_csv(p)
-        from mocapkit.markers import read_markers_csv
+        from mocapkit.io.marker_csv import read_markers_csv
 
         return read_markers_csv(p)
     raise MocapFormatError(str(p), None, f"unknown marker file suffix {p.suffix!r}; expected one of "
@@ -183,7 +181,9 @@ def write_markers(markers, path: str | Path, *, analog: bool = True) -> None:
 
         write_trc(markers, path)
     elif s == ".csv":
-        markers.to_csv(path)
+        from mocapkit.io.marker_csv import write_markers_csv
+
+        write_markers_csv(markers, path)
     else:
         raise InvalidParameterError(f"{path}: markers are written to {', '.join(MARKER_WRITE_SUFFIXES)}")
 

@@ -67,7 +67,6 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -76,10 +75,8 @@ from mocapkit.io.atomic import atomic_write_text
 from mocapkit.io.numbers import parse_number
 from mocapkit.io.textinput import (MAX_HEADER_LINE, check_cells_budget, final_line_verdict, is_regular, read_text,
                                   report_final_line)
+from mocapkit.markers import Markers, make_unique_labels
 from mocapkit.motion import Signal
-
-if TYPE_CHECKING:  # the model is imported lazily (mocapkit.markers imports mocapkit.io)
-    from mocapkit.markers import Markers
 
 __all__ = [
     "read_trc",
@@ -167,8 +164,6 @@ _TRC_KEYS = ("DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units", "Orig
 
 def read_trc(path: str | Path) -> Markers:
     """Read an OpenSim TRC marker file into :class:`mocapkit.markers.Markers` (see the module doc)."""
-    from mocapkit.markers import Markers, make_unique_labels
-
     p = Path(path)
     src = str(p)
     txt = _Text(p, "TRC file", 5)

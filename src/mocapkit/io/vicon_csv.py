@@ -38,19 +38,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.numbers import NUMBER_RE, parse_number
 from mocapkit.io.textinput import check_cells_budget, final_line_verdict, read_text, report_final_line
+from mocapkit.markers import Markers, make_unique_labels
 
 #: Range accepted for a block's rate (Hz).
 RATE_RANGE = (1e-6, 1e9)
-
-if TYPE_CHECKING:
-    from mocapkit.markers import Markers
 
 __all__ = ["read_vicon_csv", "is_vicon_csv", "BLOCK_NAMES"]
 
@@ -179,8 +176,6 @@ def _parse_block(b: _Block, src: str, cut_line: int | None = None, file_bytes: i
 
 def read_vicon_csv(path: str | Path) -> Markers:
     """Read the ``Trajectories`` (and ``Devices``) blocks of a Vicon Nexus CSV export (module doc)."""
-    from mocapkit.markers import Markers, make_unique_labels
-
     p = Path(path)
     src = str(p)
     lines, ends_with_newline, enc, size = read_text(p, "CSV file")

@@ -17,7 +17,12 @@ from mocapkit.jobs.segment import segment_job
 
 JOBS = {"info": info_job, "compress": compress_job, "filter": filter_job, "segment": segment_job}
 
-__all__ = ["JOBS", "batch_output", "compress_job", "filter_job", "info_job", "run_job", "segment_job"]
+__all__ = ["JOBS", "batch_output", "compress_job", "filter_job", "info_job", "not_read_by", "run_job", "segment_job"]
+
+#: the kinds of input (``mocapkit.io.loaders.kind_of``) each job reads
+READS = {"info": ("imu", "skeletal", "markers", "table"), "compress": ("imu", "skeletal"),
+         "filter": ("markers",), "segment": ("skeletal",)}
+_KIND_WORDS = {"imu": "IMU data", "skeletal": "skeletons", "markers": "marker files", "table": "OpenSim tables"}
 
 
 def run_job(job: str, path: str | Path, options: dict, output: str | Path | None = None) -> dict:
@@ -26,6 +31,26 @@ def run_job(job: str, path: str | Path, options: dict, output: str | Path | None
     if job not in JOBS:
         raise InvalidParameterError(f"unknown job {job!r}: one of {', '.join(JOBS)}")
     return JOBS[job](Path(path), output=None if output is None else Path(output), **options)
+
+
+def not_read_by(job: str, path: str | Path) -> str | None:
+    """Why ``job`` does not read ``path`` (e.g. ``segment`` and a C3D file), judged by the file's kind
+    alone; None when it does. A batch lists such inputs as skipped instead of running them into errors.
+    ``filter`` reads marker files and CSV text with a time column (IMU data included, as plain columns)."""
+    from mocapkit.io.loaders import kind_of
+
+    path = Path(path)
+    kind = kind_of(path)
+    if job == "filter" and kind in ("imu", "table"):
+        if path.is_file() and path.suffix.lower() in (".csv", ".txt"):
+            return None
+        return f"filter reads marker files and CSV tables with a time column; this is {_KIND_WORDS[kind]}" + (
+            "" if path.is_file() else " (a folder)")
+    if kind in READS.get(job, ()):
+        return None
+    if job == "filter":
+        return f"filter reads marker files and CSV tables with a time column; this is {_KIND_WORDS[kind]}"
+    return f"{job} reads {' and '.join(_KIND_WORDS[k] for k in READS[job])}; this is {_KIND_WORDS[kind]}"
 
 
 def batch_output(job: str, path: str | Path, options: dict, base: str | Path) -> Path | None:

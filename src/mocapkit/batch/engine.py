@@ -1,0 +1,358 @@
+"""The batch engine: the inputs of a batch through one job on a local process pool or a Dask cluster.
+
+The main process expands the inputs, decides what ``--resume`` keeps, starts the engine, appends each
+finished row to the journal (:mod:`mocapkit.batch.journal`), reports progress, writes the result table
+(:mod:`mocapkit.batch.results`) and, with ``db``, hands the rows to the catalog. Workers only run
+:func:`mocapkit.batch.worker.run_one`; they never touch the journal, the table or the database.
+
+Engines (both yield rows as inputs finish):
+
+- ``local``: :class:`concurrent.futures.ProcessPoolExecutor` with N workers started by ``forkserver``
+  (no fork of a main process that may hold threads), at most 2·N inputs in flight. A worker that dies
+  (a crash of compiled code, a kill, the OOM killer) breaks the pool: the inputs that were in flight are
+  then run again each in a pool of its own, so the one that kills its worker is named in an error row
+  and the others get their normal rows; the batch goes on with a new pool.
+- ``dask``: :class:`distributed.Client` on ``scheduler`` (``tcp://HOST:PORT``) or on a
+  :class:`distributed.LocalCluster` of N single-threaded worker processes on 127.0.0.1. A task the
+  cluster cannot finish (``KilledWorker`` after a worker died on it repeatedly, a lost connection)
+  becomes an error row.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterator
+
+from mocapkit.batch.inputs import expand_inputs, output_bases
+from mocapkit.batch.journal import JOURNAL_NAME, Journal, read_journal
+from mocapkit.batch.results import RESULTS_NAME, read_results, write_results
+from mocapkit.batch.worker import configure_numba_cache, failed_row, options_hash, run_one
+from mocapkit.errors import InvalidParameterError, MocapError
+
+ENGINES = ("local", "dask")
+#: the error of an input whose worker process died while running it (alone in its own pool)
+WORKER_DIED = "the worker process died while processing this input (it crashed or was killed)"
+
+
+@dataclass
+class Task:
+    path: Path
+    base: Path
+
+
+@dataclass
+class BatchResult:
+    """What a batch did: ``rows`` (one per input, sorted by input), the inputs ``skipped`` while expanding
+    ``(path, reason)``, how many rows were ``kept`` from an earlier run (``--resume``), wall ``seconds``
+    and the files written."""
+
+    rows: list[dict]
+    skipped: list[tuple[str, str]] = field(default_factory=list)
+    kept: int = 0
+    seconds: float = 0.0
+    results_path: Path | None = None
+    journal_path: Path | None = None
+    numba_cache: str | None = None
+    catalog: dict | None = None
+
+    @property
+    def errors(self) -> list[dict]:
+        return [r for r in self.rows if r["status"] != "ok"]
+
+    @property
+    def ok(self) -> int:
+        return sum(r["status"] == "ok" for r in self.rows)
+
+
+#: ``report(row, done, errors, total)`` after each finished row (progress display)
+Report = Callable[[dict, int, int, int], None]
+
+
+def _distributed():
+    try:
+        import distributed
+    except ImportError:
+        raise MocapError("--engine dask needs the distributed package: pip install 'mocapkit[dask]'") from None
+    return distributed
+
+
+def check_options(job: str, engine: str, jobs: int, scheduler: str | None) -> None:
+    """Refuse, before any work, an unknown job or engine, a worker count below 1, a scheduler without
+    ``--engine dask`` or one that is not ``tcp://HOST:PORT``."""
+    from mocapkit.jobs import JOBS
+
+    if job not in JOBS:
+        raise InvalidParameterError(f"unknown job {job!r}; choose from {', '.join(JOBS)}")
+    if engine not in ENGINES:
+        raise InvalidParameterError(f"--engine must be one of {', '.join(ENGINES)}, got {engine!r}")
+    if not isinstance(jobs, int) or jobs < 1:
+        raise InvalidParameterError(f"--jobs must be >= 1, got {jobs}")
+    if scheduler is not None:
+        if engine != "dask":
+            raise InvalidParameterError("--scheduler is for --engine dask")
+        host, _, port = scheduler.removeprefix("tcp://").rpartition(":")
+        if not scheduler.startswith("tcp://") or not host or not port.isdigit():
+            raise InvalidParameterError(f"--scheduler must be tcp://HOST:PORT, got {scheduler!r}")
+    if engine == "dask":
+        _distributed()
+
+
+def _prepare_out(out: Path) -> Path:
+    out = Path(os.path.abspath(out))
+    if out.exists() and not out.is_dir():
+        raise InvalidParameterError(f"--out {out}: not a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise InvalidParameterError(f"--out {out}: folder not writable")
+    return out
+
+
+def previous_rows(out: Path) -> list[dict]:
+    """The rows an earlier batch left in ``out``: the result table, then the journal (later rows win)."""
+    return [*read_results(out / RESULTS_NAME), *read_journal(out / JOURNAL_NAME)]
+
+
+def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out: str | os.PathLike[str], *,
+              jobs: int = 1, engine: str = "local", scheduler: str | None = None, resume: bool = False,
+              db: str | None = None, report: Report | None = None) -> BatchResult:
+    """Run ``job`` with ``options`` on every input and return the :class:`BatchResult`.
+
+    ``inputs`` are expanded by :func:`mocapkit.batch.inputs.expand_inputs`; each input's output goes to
+    ``mocapkit.jobs.batch_output(job, path, options, OUT/<relative dir>/<stem>)``. ``resume=True`` keeps
+    the ok rows of an earlier batch in ``out`` whose job, input, content hash and options hash match, and
+    runs the rest. Every usage error is raised before any work.
+    """
+    t0 = time.perf_counter()
+    check_options(job, engine, jobs, scheduler)
+    out = _prepare_out(Path(out))
+    found = expand_inputs(list(inputs), out)
+    found.files = _read_by_job(job, found)
+    catalog = _open_catalog(db) if db is not None else None
+    ohash = options_hash(options)
+    kept: dict[Path, dict] = {}
+    if resume:
+        done = {}
+        for r in previous_rows(out):
+            if r.get("job") == job and r.get("options_hash") == ohash:
+                done[r["input"]] = r if r.get("status") == "ok" else None
+        for f in found.files:
+            r = done.get(str(f))
+            if r is not None and r.get("content_hash") and _hash_or_none(f) == r["content_hash"]:
+                kept[f] = r
+    bases = output_bases(found.files, out)
+    tasks = [Task(f, bases[f]) for f in found.files if f not in kept]
+    cache = configure_numba_cache()
+    rows = list(kept.values())
+    total, n_err = len(found.files), 0
+    journal = Journal(out / JOURNAL_NAME, fresh=not resume)
+    feed = _CatalogFeed(catalog, rows)  # the rows kept by --resume first, then the new ones as they come
+    try:
+        runner = _local(job, tasks, options, jobs) if engine == "local" else _dask(job, tasks, options, jobs,
+                                                                                   scheduler)
+        for row in runner:
+            journal.append(row)
+            rows.append(row)
+            feed.add(row)
+            n_err += row["status"] != "ok"
+            if report is not None:
+                report(row, len(rows), n_err, total)
+    finally:
+        journal.close()
+    write_results(out / RESULTS_NAME, rows)
+    rows.sort(key=lambda r: r["input"])
+    added = feed.close()
+    return BatchResult(rows, found.skipped, len(kept), time.perf_counter() - t0, out / RESULTS_NAME,
+                       out / JOURNAL_NAME, cache, added)
+
+
+def _hash_or_none(path: Path) -> str | None:
+    from mocapkit.jobs.recording import content_hash
+
+    try:
+        return content_hash(path)
+    except (OSError, MocapError):
+        return None
+
+
+# --------------------------------------------------------------------------------------------------
+# the catalog (mocapkit.catalog): opened before the batch, written by the main process after it
+# --------------------------------------------------------------------------------------------------
+
+def _open_catalog(url: str):
+    """Open the catalog at ``url`` before any work, so a wrong URL fails at once."""
+    from mocapkit.catalog import open_catalog
+
+    return open_catalog(url)
+
+
+class _CatalogFeed:
+    """The main process hands finished rows to the catalog (workers never write the database) in chunks of
+    :attr:`CHUNK` rows or every :attr:`EVERY_S` seconds, so a long batch fills it as it goes and a killed
+    one loses at most the last chunk there (its rows are in the journal; ``--resume`` adds them)."""
+
+    CHUNK, EVERY_S = 200, 30.0
+
+    def __init__(self, catalog, first: list[dict]):
+        self.catalog, self.pending, self.added = catalog, list(first), {}
+        self.last = time.monotonic()
+
+    def add(self, row: dict) -> None:
+        if self.catalog is None:
+            return
+        self.pending.append(row)
+        if len(self.pending) >= self.CHUNK or time.monotonic() - self.last >= self.EVERY_S:
+            self.flush()
+
+    def flush(self) -> None:
+        from mocapkit.catalog.ingest import add_rows
+
+        if self.pending:
+            for table, n in add_rows(self.catalog, self.pending).items():
+                self.added[table] = self.added.get(table, 0) + n
+        self.pending, self.last = [], time.monotonic()
+
+    def close(self) -> dict | None:
+        """Write what is left, close the catalog; the rows written per table (None without a catalog)."""
+        if self.catalog is None:
+            return None
+        try:
+            self.flush()
+            return self.added
+        finally:
+            self.catalog.close()
+
+
+def _read_by_job(job: str, found) -> list[Path]:
+    """The inputs ``job`` reads; the others join ``found.skipped`` with the reason
+    (:func:`mocapkit.jobs.not_read_by`: ``segment`` on a C3D file, ``compress`` on markers...)."""
+    from mocapkit.jobs import not_read_by
+
+    keep = []
+    for f in found.files:
+        try:
+            why = not_read_by(job, f)
+        except (OSError, MocapError):  # unreadable: the job reports it in its row
+            why = None
+        if why is None:
+            keep.append(f)
+        else:
+            found.skipped.append((str(f), why))
+    return keep
+
+
+# --------------------------------------------------------------------------------------------------
+# engines
+# --------------------------------------------------------------------------------------------------
+
+def _context():
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(["mocapkit.batch.worker"])
+    return ctx
+
+
+def _local(job: str, tasks: list[Task], options: dict, n: int) -> Iterator[dict]:
+    """The local engine: a process pool of ``n`` workers (see the module docstring)."""
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    ctx = _context()
+    pending = deque(tasks)
+    pool = ProcessPoolExecutor(n, mp_context=ctx)
+    inflight: dict = {}
+    try:
+        while pending or inflight:
+            while pending and len(inflight) < 2 * n:
+                t = pending.popleft()
+                inflight[pool.submit(run_one, job, str(t.path), options, str(t.base))] = t
+            done, _ = wait(inflight, return_when=FIRST_COMPLETED)
+            suspects = []
+            for f in done:
+                t = inflight.pop(f)
+                try:
+                    yield f.result()
+                except BrokenProcessPool:
+                    suspects.append(t)
+                except Exception as e:  # noqa: BLE001 - e.g. a result that could not be sent back
+                    yield failed_row(job, t.path, options, f"the worker could not run this input: "
+                                                           f"{type(e).__name__}: {e}")
+            if suspects:  # the pool is broken: every input in flight fails with it
+                for f in wait(inflight).done:
+                    t = inflight.pop(f)
+                    try:
+                        yield f.result()
+                    except Exception:  # noqa: BLE001
+                        suspects.append(t)
+                pool.shutdown(wait=True)
+                yield from _isolated(job, suspects, options, n, ctx)
+                pool = ProcessPoolExecutor(n, mp_context=ctx)
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _isolated(job: str, tasks: list[Task], options: dict, n: int, ctx) -> Iterator[dict]:
+    """Run each of ``tasks`` in a pool of its own (``n`` at a time): an input whose worker dies is named."""
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    pending = deque(tasks)
+    running: dict = {}
+    try:
+        while pending or running:
+            while pending and len(running) < n:
+                t = pending.popleft()
+                pool = ProcessPoolExecutor(1, mp_context=ctx)
+                running[pool.submit(run_one, job, str(t.path), options, str(t.base))] = (t, pool)
+            done, _ = wait(running, return_when=FIRST_COMPLETED)
+            for f in done:
+                t, pool = running.pop(f)
+                try:
+                    row = f.result()
+                except BrokenProcessPool:
+                    row = failed_row(job, t.path, options, WORKER_DIED)
+                except Exception as e:  # noqa: BLE001
+                    row = failed_row(job, t.path, options, f"the worker could not run this input: "
+                                                           f"{type(e).__name__}: {e}")
+                pool.shutdown(wait=True)
+                yield row
+    finally:
+        for _, pool in running.values():
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _dask(job: str, tasks: list[Task], options: dict, n: int, scheduler: str | None) -> Iterator[dict]:
+    """The Dask engine: the same :func:`run_one` on a cluster (see the module docstring)."""
+    import logging
+
+    distributed = _distributed()
+    cluster = None
+    if scheduler is not None:
+        try:
+            client = distributed.Client(scheduler)  # waits distributed.comm.timeouts.connect (dask config)
+        except (OSError, TimeoutError) as e:
+            raise MocapError(f"--scheduler {scheduler}: cannot connect ({e})") from None
+    else:
+        cluster = distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                           dashboard_address=None, silence_logs=logging.ERROR)
+        client = distributed.Client(cluster)
+    try:
+        futures = {client.submit(run_one, job, str(t.path), options, str(t.base), pure=False, retries=0): t
+                   for t in tasks}
+        for f in distributed.as_completed(list(futures)):
+            t = futures.pop(f)
+            try:
+                row = f.result()
+            except Exception as e:  # noqa: BLE001 - KilledWorker, a lost connection...
+                row = failed_row(job, t.path, options, f"the Dask cluster could not run this input: "
+                                                       f"{type(e).__name__}: {e}")
+            f.release()
+            yield row
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

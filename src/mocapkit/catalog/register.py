@@ -1,0 +1,74 @@
+"""Register recordings in the catalog without running a job (``mocapkit catalog import``).
+
+Each input is read once by the ``info`` job (:mod:`mocapkit.jobs.info`) in this process; its
+``"recording"`` dict, content hash and size go to ``recordings`` and ``channels``. No ``runs`` row is
+written. A file that cannot be read is reported with its one-line error and the others go on.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mocapkit.catalog.engine import Catalog
+
+#: recordings written per transaction (a crash loses at most this many)
+BATCH = 200
+
+
+@dataclass
+class ImportResult:
+    """``registered``: paths written; ``errors``: ``(path, one-line error)``; ``skipped``: ``(path, reason)``
+    for files that are no recordings (ASF skeletons, labels, unknown suffixes)."""
+
+    registered: list[str] = field(default_factory=list)
+    errors: list[tuple[str, str]] = field(default_factory=list)
+    skipped: list[tuple[str, str]] = field(default_factory=list)
+
+
+def describe_input(path: str | os.PathLike, asf: Path | None = None) -> tuple[dict, str, int | None]:
+    """``(R, content_hash, bytes)`` of one input (raises what the reader raises)."""
+    from mocapkit.catalog.ingest import input_bytes
+    from mocapkit.jobs import run_job
+    from mocapkit.jobs.recording import content_hash
+
+    h = content_hash(path)
+    record = run_job("info", Path(path), {"asf": None if asf is None else str(asf)})
+    return {**record["recording"], "path": os.fspath(path)}, h, input_bytes(os.fspath(path))
+
+
+def import_folder(catalog: Catalog, inputs: list[str | os.PathLike], asf: Path | None = None,
+                  on_file: Callable[[str, str | None], None] | None = None) -> ImportResult:
+    """Register every recording found in ``inputs`` (files, folders walked recursively, globs: the rules of
+    :func:`mocapkit.batch.inputs.expand_inputs`). ``on_file(path, error_or_None)`` is called after each
+    file (progress, messages). An argument naming nothing raises before any work."""
+    from mocapkit.batch.inputs import expand_inputs
+    from mocapkit.batch.worker import error_line
+    from mocapkit.catalog.ingest import put_recordings
+
+    found = expand_inputs(list(inputs))
+    result = ImportResult(skipped=list(found.skipped))
+    pending: list[tuple[dict, str, int | None]] = []
+
+    def flush() -> None:
+        if pending:
+            with catalog.transaction():
+                put_recordings(catalog, pending)
+            result.registered += [r["path"] for r, _, _ in pending]
+            pending.clear()
+
+    for f in found.files:
+        try:
+            pending.append(describe_input(f, asf))
+            error = None
+        except (Exception, SystemExit) as e:  # noqa: BLE001 - every failure is this file's error line
+            error = error_line(e)
+            result.errors.append((os.fspath(f), error))
+        if on_file is not None:
+            on_file(os.fspath(f), error)
+        if len(pending) >= BATCH:
+            flush()
+    flush()
+    return result

@@ -1,0 +1,225 @@
+"""``mocapkit batch JOB INPUT... [job options] --out DIR``: one job over a database of recordings.
+
+Thin like ``cli.py``: parse the job's options (the same options as the single-file command, from
+:mod:`mocapkit.cli_options`), call :func:`mocapkit.batch.run_batch`, show progress on stderr and print
+the summary on stdout. Exit 0 when every input is ok, 1 when some rows are errors (the batch still
+finishes and writes every row), 2 for a usage error (before any work).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from mocapkit.cli_options import (
+    AsfOpt, AutoOpt, ColumnsOpt, DownsampleOpt, JointOpt, MarkersOpt, MaxAngleOpt, MaxLenOpt, MaxPositionErrorOpt,
+    Method, MethodOpt, OrderOpt, PenaltyOpt, QuatColumnsOpt, RateOpt, ScalarLastOpt, SegMethod, SegMethodOpt,
+    SegRateOpt, Solver, SolverOpt, StrictOpt, TargetIcrOpt, ThresholdOpt, TimeColumnOpt, TimeUnitOpt, TrainOpt,
+    UnitCmOpt, _within, console, err,
+)
+from mocapkit.errors import InvalidParameterError
+
+batch_app = typer.Typer(
+    add_completion=False,
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    help="Run one job (info, compress, filter, segment) over files, folders (recursively) and globs: a "
+         "process pool or a Dask cluster, a journal and OUT/results.parquet, --resume after a stop.",
+)
+
+InputsArg = Annotated[list[str], typer.Argument(
+    help="Files, folders (walked recursively) and quoted globs ('data/**/*.bvh') of any format mocapkit reads.")]
+OutOpt = Annotated[Path, typer.Option("--out", help="Folder for the outputs (mirroring the inputs' tree), "
+                                                    "journal.jsonl and results.parquet.")]
+JobsOpt = Annotated[Optional[int], typer.Option("--jobs", "-j", help="Worker processes (default: the CPU count).",
+                                                callback=_within(1, 4096))]
+EngineOpt = Annotated[str, typer.Option("--engine", help="local (a process pool) or dask.")]
+SchedulerOpt = Annotated[Optional[str], typer.Option(
+    "--scheduler", help="tcp://HOST:PORT of a running Dask scheduler (--engine dask; default: a local cluster).")]
+ResumeOpt = Annotated[bool, typer.Option(
+    "--resume", help="Keep the ok rows of an earlier batch in OUT with the same job, options and file content; "
+                     "run the rest.")]
+DbOpt = Annotated[Optional[str], typer.Option(
+    "--db", help="Also add the rows to a motion catalog: motion.duckdb or postgresql://...")]
+
+
+def _abs(p: Optional[Path | str]) -> Optional[str]:
+    """A path option as an absolute string: the options are JSON (hashed, stored) and workers on a
+    cluster do not share the command's working folder."""
+    return None if p is None else os.path.abspath(os.fspath(p))
+
+
+def _progress():
+    """``(report, close)``: a rich bar on a terminal (done/total, errors, ETA), else a plain line on
+    stderr at every tenth of the inputs. The display starts with the first finished row."""
+    t0 = time.monotonic()
+    state: dict = {}
+
+    def report(row, done, errors, n):
+        if err.is_terminal:
+            if "prog" not in state:
+                from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
+                                           TimeRemainingColumn)
+
+                prog = Progress(TextColumn("batch"), BarColumn(), MofNCompleteColumn(),
+                                TextColumn("{task.fields[errors]} errors"), TimeElapsedColumn(), TextColumn("ETA"),
+                                TimeRemainingColumn(), console=err, transient=True)
+                state["prog"], state["task"] = prog, prog.add_task("batch", total=n, errors=0)
+                prog.start()
+            state["prog"].update(state["task"], completed=done, total=n, errors=errors)
+        elif done % max(1, n // 10) == 0 or done == n:
+            spent = time.monotonic() - t0
+            eta = spent / done * (n - done) if done else 0.0
+            err.print(f"batch: {done}/{n} done, {errors} errors, {spent:.0f} s, ETA {eta:.0f} s",
+                      markup=False, highlight=False)
+
+    def close():
+        if "prog" in state:
+            state["prog"].stop()
+
+    return report, close
+
+
+def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: Optional[int], engine: str,
+         scheduler: Optional[str], resume: bool, db: Optional[str]) -> None:
+    from mocapkit.batch import run_batch
+
+    n = jobs if jobs is not None else (os.cpu_count() or 1)
+    report, close = _progress()
+    try:
+        res = run_batch(job, inputs, options, out, jobs=n, engine=engine, scheduler=scheduler, resume=resume,
+                        db=db, report=report)
+    finally:
+        close()
+    _summary(job, res)
+    if res.errors:
+        raise typer.Exit(1)
+
+
+def _summary(job: str, res) -> None:
+    say = lambda s: console.print(s, markup=False, highlight=False, soft_wrap=True)  # noqa: E731
+    kept = f", {res.kept} kept from an earlier run" if res.kept else ""
+    say(f"batch {job}: {res.ok} ok, {len(res.errors)} errors, {len(res.skipped)} skipped{kept} "
+        f"in {res.seconds:.1f} s")
+    say(f"results: {res.results_path}")
+    if res.catalog is not None:
+        say(f"catalog: {res.catalog.get('runs', 0)} runs, {res.catalog.get('recordings', 0)} recordings written")
+    if res.errors:
+        say("errors:")
+        for r in res.errors:  # most errors name the file first already
+            e = r["error"] or ""
+            say(f"  {e}" if e.startswith(r["input"]) else f"  {r['input']}: {e}")
+    if res.skipped:
+        say("skipped:")
+        for p, why in res.skipped:
+            say(f"  {p}: {why}")
+
+
+@batch_app.command("info")
+def batch_info(
+    inputs: InputsArg,
+    out: OutOpt,
+    asf: AsfOpt = None,
+    rate: RateOpt = None,
+    time_column: TimeColumnOpt = None,
+    quaternion_columns: QuatColumnsOpt = None,
+    scalar_last: ScalarLastOpt = False,
+    time_unit: TimeUnitOpt = None,
+    strict: StrictOpt = True,
+    jobs: JobsOpt = None,
+    engine: EngineOpt = "local",
+    scheduler: SchedulerOpt = None,
+    resume: ResumeOpt = False,
+    db: DbOpt = None,
+) -> None:
+    """Describe every recording (the record of ``mocapkit info --json``)."""
+    options = {"asf": _abs(asf), "rate": rate, "time_column": time_column, "quaternion_columns": quaternion_columns,
+               "scalar_last": scalar_last, "time_unit": time_unit, "strict": strict}
+    _run("info", inputs, options, out, jobs, engine, scheduler, resume, db)
+
+
+@batch_app.command("compress")
+def batch_compress(
+    inputs: InputsArg,
+    out: OutOpt,
+    method: MethodOpt = Method.fastsw,
+    threshold: ThresholdOpt = None,
+    target_icr: TargetIcrOpt = None,
+    max_angle: MaxAngleOpt = None,
+    max_segment_length: MaxLenOpt = None,
+    rate: RateOpt = None,
+    time_column: TimeColumnOpt = None,
+    quaternion_columns: QuatColumnsOpt = None,
+    scalar_last: ScalarLastOpt = False,
+    time_unit: TimeUnitOpt = None,
+    asf: AsfOpt = None,
+    max_position_error: MaxPositionErrorOpt = None,
+    unit_cm: UnitCmOpt = None,
+    strict: StrictOpt = True,
+    jobs: JobsOpt = None,
+    engine: EngineOpt = "local",
+    scheduler: SchedulerOpt = None,
+    resume: ResumeOpt = False,
+    db: DbOpt = None,
+) -> None:
+    """Compress every recording: IMU points to OUT/.../<stem>.points/, skeletons to OUT/.../<stem>.glb."""
+    if sum(x is not None for x in (threshold, target_icr, max_angle, max_position_error)) != 1:
+        raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-angle (IMU input) or "
+                                    "--max-position-error (skeletal input)")
+    options = {"method": method.value, "threshold": threshold, "target_icr": target_icr, "max_angle": max_angle,
+               "max_segment_length": max_segment_length, "rate": rate, "time_column": time_column,
+               "quaternion_columns": quaternion_columns, "scalar_last": scalar_last, "time_unit": time_unit,
+               "asf": _abs(asf), "max_position_error": max_position_error, "unit_cm": unit_cm, "strict": strict}
+    _run("compress", inputs, options, out, jobs, engine, scheduler, resume, db)
+
+
+@batch_app.command("filter")
+def batch_filter(
+    inputs: InputsArg,
+    out: OutOpt,
+    order: OrderOpt = 2,
+    penalty: PenaltyOpt = None,
+    auto: AutoOpt = False,
+    solver: SolverOpt = Solver.exact,
+    markers: MarkersOpt = None,
+    columns: ColumnsOpt = None,
+    jobs: JobsOpt = None,
+    engine: EngineOpt = "local",
+    scheduler: SchedulerOpt = None,
+    resume: ResumeOpt = False,
+    db: DbOpt = None,
+) -> None:
+    """Filter every marker file or time table: values to OUT/.../<stem>.filtered.csv (.filtered.c3d)."""
+    if (penalty is None) == (not auto):
+        raise InvalidParameterError("give exactly one of --penalty K or --auto")
+    options = {"order": order, "penalty": penalty, "auto": auto, "solver": solver.value, "markers": markers,
+               "columns": columns}
+    _run("filter", inputs, options, out, jobs, engine, scheduler, resume, db)
+
+
+@batch_app.command("segment")
+def batch_segment(
+    inputs: InputsArg,
+    out: OutOpt,
+    asf: AsfOpt = None,
+    method: SegMethodOpt = SegMethod.arma,
+    joint: JointOpt = None,
+    train: TrainOpt = None,
+    rate: SegRateOpt = None,
+    downsample: DownsampleOpt = None,
+    jobs: JobsOpt = None,
+    engine: EngineOpt = "local",
+    scheduler: SchedulerOpt = None,
+    resume: ResumeOpt = False,
+    db: DbOpt = None,
+) -> None:
+    """Cut every BVH/AMC take into actions (the record of ``mocapkit segment --json``)."""
+    train_abs = None if not train else [
+        "=".join(_abs(x.strip()) for x in item.split("=", 1)) for item in train]
+    options = {"asf": _abs(asf), "method": method.value, "joint": joint or None, "train": train_abs, "rate": rate,
+               "downsample": downsample}
+    _run("segment", inputs, options, out, jobs, engine, scheduler, resume, db)

@@ -1,0 +1,144 @@
+"""mocapkit batch as a real process: kill -9 in the middle and --resume loses no row and duplicates none;
+a worker killed in the middle of a batch costs no row; the workers share the numba cache folder."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from mocapkit.batch.journal import read_journal
+from mocapkit.batch.results import read_results
+
+pytest.importorskip("pyarrow", reason="the batch results need pyarrow (mocapkit[batch])")
+
+MOCAPKIT = [sys.executable, "-m", "mocapkit"]
+N_TAKES = 24
+
+
+@pytest.fixture
+def takes(tests_data, tmp_path) -> Path:
+    """24 AMC takes (their ASF beside them) in two sub-folders, each a little different."""
+    db = tmp_path / "db"
+    text = (tests_data / "cmu" / "86_01_15hz_first1600.amc").read_text()
+    for i in range(N_TAKES):
+        d = db / f"s{i % 2}"
+        d.mkdir(parents=True, exist_ok=True)
+        (d / f"86_{i:02d}.amc").write_text(f"# copy {i}\n" + text)
+        if not (d / "86.asf").exists():
+            shutil.copy(tests_data / "cmu" / "86.asf", d / "86.asf")
+    return db
+
+
+def _env(tmp_path: Path, **extra) -> dict:
+    """The batch's environment: its temporary files (the forkserver's socket folder, which a kill -9
+    leaves behind) go to the test's own folder."""
+    (tmp_path / "tmp").mkdir(exist_ok=True)
+    return {**os.environ, "TMPDIR": str(tmp_path / "tmp"), **extra}
+
+
+def _start(args, env) -> subprocess.Popen:
+    return subprocess.Popen([*MOCAPKIT, *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            start_new_session=True, env=env)
+
+
+def _wait_rows(journal: Path, proc: subprocess.Popen, n: int, timeout: float = 180.0) -> list[dict]:
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        rows = read_journal(journal) if journal.exists() else []
+        if len(rows) >= n:
+            return rows
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.02)
+    raise AssertionError(f"no {n} journal rows within {timeout} s")
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate()
+
+
+def test_resume_after_kill_9_loses_and_duplicates_no_row(takes, tmp_path):
+    out = tmp_path / "out"
+    cache = tmp_path / "numba"  # a fresh numba cache: the workers compile into it (and it slows the start)
+    args = ["batch", "compress", takes, "--out", out, "-t", "0.01", "--jobs", "2"]
+    env = _env(tmp_path, NUMBA_CACHE_DIR=str(cache))
+    proc = _start(args, env)
+    try:
+        _wait_rows(out / "journal.jsonl", proc, 1)
+        os.killpg(proc.pid, signal.SIGKILL)  # the main process, its forkserver and its workers
+        proc.communicate()
+    finally:
+        _stop(proc)
+    before = read_journal(out / "journal.jsonl")
+    assert 1 <= len(before) < N_TAKES, "the kill must come in the middle of the batch"
+    assert not (out / "results.parquet").exists()
+    # the workers compiled into the one cache folder given to the main process
+    assert list(cache.rglob("*.nbi")), "no numba index in NUMBA_CACHE_DIR"
+
+    done = subprocess.run([*MOCAPKIT, *map(str, args), "--resume"], capture_output=True, text=True,
+                          env=env, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert f"{len(before)} kept from an earlier run" in done.stdout
+    rows = read_results(out / "results.parquet")
+    inputs = sorted(str(p) for p in takes.rglob("*.amc"))
+    assert [r["input"] for r in rows] == inputs  # every input once, none lost, none twice
+    assert all(r["status"] == "ok" for r in rows)
+    by_input = {r["input"]: r for r in rows}
+    for r in before:  # the rows finished before the kill are kept as they were, not run again
+        assert by_input[r["input"]] == r
+    for r in rows:  # and every output is there, whole
+        out_file = Path(json.loads(r["record_json"])["outputs"][0]["path"])
+        assert out_file.stat().st_size == json.loads(r["record_json"])["outputs"][0]["bytes"] > 0
+        assert out_file.read_bytes()[:4] == b"glTF"
+
+
+def _children(pid: int) -> list[int]:
+    kids = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as f:
+                    ppid = int(f.read().rsplit(")", 1)[1].split()[1])
+            except OSError:
+                continue
+            if ppid == pid:
+                kids.append(int(d))
+    return kids
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as f:
+            return f.read().replace(b"\0", b" ").decode(errors="replace")
+    except OSError:
+        return ""
+
+
+def test_a_killed_worker_costs_no_row(takes, tmp_path):
+    out = tmp_path / "out"
+    proc = _start(["batch", "compress", takes, "--out", out, "-t", "0.01", "--jobs", "2"], _env(tmp_path))
+    try:
+        _wait_rows(out / "journal.jsonl", proc, 1)
+        server = [p for p in _children(proc.pid) if "forkserver" in _cmdline(p)]
+        assert len(server) == 1, [(_cmdline(p)) for p in _children(proc.pid)]
+        workers = _children(server[0])
+        assert workers, "no worker process found"
+        n_before = len(read_journal(out / "journal.jsonl"))
+        os.kill(workers[0], signal.SIGKILL)
+        stdout, stderr = proc.communicate(timeout=600)
+    finally:
+        _stop(proc)
+    assert proc.returncode == 0, stderr.decode()
+    assert n_before < N_TAKES, "the worker must be killed in the middle of the batch"
+    rows = read_results(out / "results.parquet")
+    assert [r["input"] for r in rows] == sorted(str(p) for p in takes.rglob("*.amc"))
+    assert all(r["status"] == "ok" for r in rows), [r["error"] for r in rows if r["status"] != "ok"]
