@@ -42,7 +42,8 @@ def _temp_entries() -> set[str]:
     import tempfile
 
     tmp = tempfile.gettempdir()
-    return {os.path.join(tmp, e) for e in os.listdir(tmp) if not e.startswith("pytest-of-")}
+    # pymp-*: multiprocessing's own folder of a forkserver (batch tests), removed when the interpreter exits
+    return {os.path.join(tmp, e) for e in os.listdir(tmp) if not e.startswith(("pytest-of-", "pymp-"))}
 
 
 def pytest_sessionstart(session):

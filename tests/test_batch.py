@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from mocapkit import cli
-from mocapkit.batch.inputs import expand_inputs, output_bases
+from mocapkit.jobs.inputs import expand_inputs, output_bases
 from mocapkit.batch.journal import Journal, read_journal
 from mocapkit.batch.results import read_results
 from mocapkit.errors import InvalidParameterError, MocapFormatError

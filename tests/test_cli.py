@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from mocapkit.io import read_imu_csv
-from mocapkit.pla import compress_to, evaluate
+from mocapkit.pla import compress_to
 from mocapkit.pla.decode import reconstruct_points
 from mocapkit.quat import angular_distance
 

@@ -203,3 +203,14 @@ def test_batch_lists_inputs_the_job_does_not_read_as_skipped(files, tmp_path):
     skipped = {Path(p).name: why for p, why in res.skipped}
     assert set(skipped) == {files["tsv"].name, files["imu"].name, files["asf"].name}
     assert skipped[files["tsv"].name] == "segment reads skeletons; this is marker files"
+
+
+def test_segment_finds_the_labels_beside_the_take(files):
+    """``labels_beside``: ``TAKE.labels.txt`` next to the take is used as if given with ``labels``."""
+    assert files["labels"].name == files["amc"].stem + ".labels.txt"
+    opts = {"asf": files["asf"], "rate": 15.0}
+    beside = run_job("segment", files["amc"], {**opts, "labels_beside": True})
+    given = run_job("segment", files["amc"], {**opts, "labels": files["labels"]})
+    plain = run_job("segment", files["amc"], opts)
+    assert beside["segments"] == given["segments"] and beside["scores"] == given["scores"]
+    assert any(s["label"] for s in beside["segments"]) and all(s["label"] is None for s in plain["segments"])

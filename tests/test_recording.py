@@ -241,3 +241,18 @@ def test_jobs_records_carry_the_recording(tests_data):
     rec = run_job("info", path, {})
     assert rec["recording"] == describe(load(path), path)
     assert rec["recording"]["frames"] == rec["frames"] and rec["recording"]["rate_hz"] == rec["rate_hz"]
+
+
+def test_cmu_style_names_give_subject_and_take_in_any_format(tests_data, tmp_path):
+    import shutil
+
+    from mocapkit.jobs import run_job
+
+    for src, name in ((tests_data / "imu" / "xio" / "ngimu_quaternion.csv", "07_02.csv"),
+                      (tests_data / "markers" / "juggling-qualisys-300hz-first120.tsv", "12_003.tsv"),
+                      (tests_data / "imu" / "xio" / "ngimu_quaternion.csv", "07_02b.csv")):
+        p = tmp_path / name
+        shutil.copy(src, p)
+        r = run_job("info", p, {})["recording"]
+        want = (None, None) if name == "07_02b.csv" else tuple(p.stem.split("_"))
+        assert (r["subject"], r["take"]) == want, name

@@ -211,6 +211,9 @@ def batch_segment(
     train: TrainOpt = None,
     rate: SegRateOpt = None,
     downsample: DownsampleOpt = None,
+    labels_beside: Annotated[bool, typer.Option(
+        "--labels-beside", help="Score each take against its TAKE.labels.txt (CMU-86 HACA or mocap6 per-frame) "
+                                "when one lies beside it; segments get the reference labels.")] = False,
     jobs: JobsOpt = None,
     engine: EngineOpt = "local",
     scheduler: SchedulerOpt = None,
@@ -221,5 +224,5 @@ def batch_segment(
     train_abs = None if not train else [
         "=".join(_abs(x.strip()) for x in item.split("=", 1)) for item in train]
     options = {"asf": _abs(asf), "method": method.value, "joint": joint or None, "train": train_abs, "rate": rate,
-               "downsample": downsample}
+               "downsample": downsample, "labels_beside": labels_beside}
     _run("segment", inputs, options, out, jobs, engine, scheduler, resume, db)

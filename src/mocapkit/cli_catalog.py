@@ -97,7 +97,7 @@ def import_cmd(
     A file that cannot be read is reported with its error on stderr and the others go on. Exit 0 when
     at least one recording was registered, else 2.
     """
-    from mocapkit.batch.inputs import expand_inputs
+    from mocapkit.jobs.inputs import expand_inputs
     from mocapkit.catalog import open_catalog
     from mocapkit.catalog.engine import redact
     from mocapkit.catalog.register import import_folder

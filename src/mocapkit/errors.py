@@ -53,3 +53,17 @@ class BoundViolationError(MocapError):
 class MocapWarning(UserWarning):
     """A file was read but something in it looks wrong (e.g. a last value that seems cut short);
     issued with :func:`warnings.warn` and also recorded in the result's ``meta["warnings"]``."""
+
+
+def error_line(e: BaseException) -> str:
+    """The one line the command line prints after ``error:`` for this exception (``cli.main``'s rules)."""
+    if isinstance(e, MocapError):
+        text = str(e)
+    elif isinstance(e, MemoryError):
+        text = "out of memory (an input or option asks for more than this machine has)"
+    elif isinstance(e, OSError):
+        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
+        text = f"{where}{e.strerror or e}"
+    else:
+        text = f"internal error: {type(e).__name__}: {e} (please report it)"
+    return " ".join(part.strip() for part in text.splitlines() if part.strip())

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator
 
-from mocapkit.batch.inputs import expand_inputs, output_bases
+from mocapkit.jobs.inputs import expand_inputs, output_bases
 from mocapkit.batch.journal import JOURNAL_NAME, Journal, read_journal
 from mocapkit.batch.results import RESULTS_NAME, read_results, write_results
 from mocapkit.batch.worker import configure_numba_cache, failed_row, options_hash, run_one
@@ -121,7 +121,7 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
               db: str | None = None, report: Report | None = None) -> BatchResult:
     """Run ``job`` with ``options`` on every input and return the :class:`BatchResult`.
 
-    ``inputs`` are expanded by :func:`mocapkit.batch.inputs.expand_inputs`; each input's output goes to
+    ``inputs`` are expanded by :func:`mocapkit.jobs.inputs.expand_inputs`; each input's output goes to
     ``mocapkit.jobs.batch_output(job, path, options, OUT/<relative dir>/<stem>)``. ``resume=True`` keeps
     the ok rows of an earlier batch in ``out`` whose job, input, content hash and options hash match, and
     runs the rest. Every usage error is raised before any work.

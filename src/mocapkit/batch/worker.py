@@ -2,8 +2,8 @@
 
 :func:`run_one` is the same function on the local process pool and on Dask workers. It never raises for a
 bad input: a corrupt, empty or unreadable file becomes a row with ``status="error"`` and the one-line
-error the single-file command prints (after ``error:``). The row's fields are those of the batch row of
-the issue-11 contract (``docs/architecture.md``, "Batch").
+error the single-file command prints (after ``error:``). The row's fields are described in
+``docs/records.md`` ("Batch rows").
 """
 
 from __future__ import annotations
@@ -15,6 +15,8 @@ import sys
 import time
 from datetime import datetime, timezone
 from pathlib import Path
+
+from mocapkit.errors import error_line  # noqa: F401 - the rows' one-line errors
 
 #: the columns of a batch row, in table order
 ROW_FIELDS = ("job", "input", "status", "error", "content_hash", "options_json", "options_hash",
@@ -39,22 +41,6 @@ def _plain(v):
     if hasattr(v, "value"):  # an Enum option
         return v.value
     raise TypeError(f"option value {v!r} is not JSON-able")
-
-
-def error_line(e: BaseException) -> str:
-    """The one line the command line prints after ``error:`` for this exception (``cli.main``'s rules)."""
-    from mocapkit.errors import MocapError
-
-    if isinstance(e, MocapError):
-        text = str(e)
-    elif isinstance(e, MemoryError):
-        text = "out of memory (an input or option asks for more than this machine has)"
-    elif isinstance(e, OSError):
-        where = f"{e.filename}: " if getattr(e, "filename", None) else ""
-        text = f"{where}{e.strerror or e}"
-    else:
-        text = f"internal error: {type(e).__name__}: {e} (please report it)"
-    return " ".join(part.strip() for part in text.splitlines() if part.strip())
 
 
 def numba_cache_dir() -> str | None:

@@ -42,10 +42,10 @@ def describe_input(path: str | os.PathLike, asf: Path | None = None) -> tuple[di
 def import_folder(catalog: Catalog, inputs: list[str | os.PathLike], asf: Path | None = None,
                   on_file: Callable[[str, str | None], None] | None = None) -> ImportResult:
     """Register every recording found in ``inputs`` (files, folders walked recursively, globs: the rules of
-    :func:`mocapkit.batch.inputs.expand_inputs`). ``on_file(path, error_or_None)`` is called after each
+    :func:`mocapkit.jobs.inputs.expand_inputs`). ``on_file(path, error_or_None)`` is called after each
     file (progress, messages). An argument naming nothing raises before any work."""
-    from mocapkit.batch.inputs import expand_inputs
-    from mocapkit.batch.worker import error_line
+    from mocapkit.errors import error_line
+    from mocapkit.jobs.inputs import expand_inputs
     from mocapkit.catalog.ingest import put_recordings
 
     found = expand_inputs(list(inputs))

@@ -23,8 +23,8 @@ Channels are named as BIDS-Motion's ``*_channels.tsv`` names them (columns ``nam
   ``_tz``), which are ``POS`` in ``m`` (OpenSim works in S.I. units); otherwise ``MISC`` ``n/a``.
 
 ``subject``/``take`` are only what the file carries: the C3D ``SUBJECTS:NAMES`` parameter, the MVNX
-``<subject label=...>``; for CMU-style file names ``<subject>_<take>.amc|.bvh|.c3d`` (``86_01.amc``) they
-come from the **file name** (subject ``"86"``, take ``"01"``). Otherwise ``None``.
+``<subject label=...>``; for CMU-style file names ``<subject>_<take>`` in digits, whatever the format
+(``86_01.amc``, ``07_02.csv``), they come from the **file name** (subject ``"86"``, take ``"01"``). Otherwise ``None``.
 """
 
 from __future__ import annotations
@@ -40,9 +40,8 @@ from mocapkit.errors import MocapFormatError
 
 CHUNK = 1 << 20
 
-#: CMU's ``<subject>_<take>`` file names (the catalogue distributes AMC, BVH and C3D files so named)
+#: CMU's ``<subject>_<take>`` file names (its AMC, BVH and C3D files; labs name other formats alike)
 _CMU_NAME = re.compile(r"^(\d+)_(\d+)$")
-_CMU_SUFFIXES = (".amc", ".bvh", ".c3d")
 _UNITS_CM = {100.0: "m", 1.0: "cm", 0.1: "mm", 2.54: "in"}
 
 
@@ -104,36 +103,8 @@ def _skeletal(m) -> tuple[list[dict], str | None, str | None]:
 def _markers(mk, path: Path) -> tuple[list[dict], str | None, str | None]:
     units = mk.units or "n/a"
     out = [_channel(f"{lab}_{c}", c, "POS", lab, units) for lab in mk.labels for c in "xyz"]
-    names = mk.meta.get("subjects")
-    if names is None and mk.meta.get("format") == "c3d" and "SUBJECTS" in (mk.meta.get("groups") or ()):
-        names = _c3d_subject_names(path)
-    names = [n.strip() for n in (names or ()) if n and n.strip()]
+    names = [n.strip() for n in (mk.meta.get("subjects") or ()) if n and n.strip()]
     return out, (", ".join(names) if names else None), None
-
-
-def _c3d_subject_names(path: Path) -> list[str] | None:
-    """``SUBJECTS:NAMES`` of a C3D file that :func:`mocapkit.io.c3d.read_c3d` has read: the parameter
-    section alone is read again (at most 255 blocks of 512 bytes). ``None`` when the path is no longer a
-    readable regular file."""
-    from mocapkit.io.c3d import _PROCESSORS, _decode, _walk_parameters
-
-    try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
-            return None
-        with open(path, "rb") as fh:
-            head = fh.read(512)
-            pstart = 512 * (head[0] - 1)
-            fh.seek(pstart)
-            first = fh.read(4)
-            nblocks, processor = first[2], _PROCESSORS.get(first[3])
-            fh.seek(pstart)
-            section = fh.read(512 * nblocks)
-    except (OSError, IndexError):
-        return None
-    groups = _walk_parameters(section, 0, len(section), processor)
-    gid = next((g for g, v in groups.items() if v.name == "SUBJECTS"), None)
-    p = groups[gid].params.get("NAMES") if gid is not None else None
-    return None if p is None else [str(v) for v in _decode(p, processor)]
 
 
 def _table(sig) -> list[dict]:
@@ -162,7 +133,7 @@ def _imu(sigs: dict) -> list[dict]:
 
 
 def _cmu_name(path: Path) -> tuple[str | None, str | None]:
-    m = _CMU_NAME.match(path.stem) if path.suffix.lower() in _CMU_SUFFIXES else None
+    m = _CMU_NAME.match(path.stem)
     return (m.group(1), m.group(2)) if m else (None, None)
 
 

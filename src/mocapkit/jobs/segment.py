@@ -39,11 +39,12 @@ def segments_of(cuts, n_frames: int, rate_hz: float, ref=None) -> list[dict]:
 
 def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", labels: Path | None = None,
                 joint: list[str] | None = None, train: list[str] | None = None, rate: float | None = None,
-                downsample: int | None = None, output: Path | None = None, plot: Path | None = None,
-                progress: Progress = no_progress) -> dict:
+                downsample: int | None = None, labels_beside: bool = False, output: Path | None = None,
+                plot: Path | None = None, progress: Progress = no_progress) -> dict:
     """Segment the BVH/AMC take ``path`` with ``method`` and return the record of ``mocapkit segment
     --json`` (cuts in frames and seconds, the segments between them; ``reference_cuts`` and ``scores``
-    against ``labels``). ``output`` is unused (the cuts are the record); ``plot``: a PNG of the limb angles
+    against ``labels``; ``labels_beside``: the take's ``<stem>.labels.txt`` when there is one, as a database
+    such as CMU's keeps them). ``output`` is unused (the cuts are the record); ``plot``: a PNG of the limb angles
     with the cuts."""
     from mocapkit.io.labels import read_reference
     from mocapkit.io.loaders import load_motion
@@ -51,6 +52,8 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
 
     path = Path(path)
     plot = None if plot is None else Path(plot)
+    if labels is None and labels_beside and path.with_name(path.stem + ".labels.txt").is_file():
+        labels = path.with_name(path.stem + ".labels.txt")
     train_files = [Path(x.strip()) for it in train or [] for x in it.split("=", 1)]
     check_outputs(path, (plot, "--plot"), inputs=(asf, labels, *train_files))
     motion = load_motion(path, asf=asf, rate=rate)

@@ -1,4 +1,5 @@
-"""The inputs of a batch: files, folders (recursively) and globs expanded into a sorted list of recordings.
+"""The inputs of a batch or a catalog import: files, folders (recursively) and globs expanded into a sorted
+list of recordings.
 
 A recording is a file whose suffix one of the readers knows (:data:`input_suffixes`). Companion files are
 not inputs: an ASF skeleton belongs to the AMC takes beside it (the AMC job finds ``<stem>.asf`` or
