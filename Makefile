@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 
-.PHONY: demo test bench bench-imu sweep fuzz clean pg-start pg-stop
+.PHONY: demo test bench bench-imu bench-batch sweep fuzz clean pg-start pg-stop
 
 $(STAMP): pyproject.toml Makefile
 	$(PY) -m venv $(VENV)
@@ -33,6 +33,12 @@ bench-imu: $(STAMP)
 
 sweep: $(STAMP)
 	$(BIN)/mocapkit sweep ../shared/data/imu/xio-lower-body --out docs/sweep
+
+# mocapkit batch at scale: 1,000 generated recordings + 10 corrupt files, 1 vs 2 workers, Dask vs the
+# local pool, main-process memory, catalog size and query time on DuckDB (and PostgreSQL when
+# MOCAPKIT_TEST_PG names a server: make pg-start); needs ../shared/data; writes docs/batch_bench.json
+bench-batch: $(STAMP)
+	$(BIN)/python benchmarks/batch_scale.py --n 1000 --work build/batch-bench --json docs/batch_bench.json
 
 # issue 10's adversarial trial (tools/trial.py): mutated files of every format, odd output paths, extreme
 # options, kill -9, huge claims; prints category x outcome counts, writes $(FUZZ_OUT)/report.md and .json,

@@ -61,7 +61,8 @@ def batch(args: list[str], work: Path) -> dict:
             "rows": len(tab), "errors": sum(row["status"] == "error" for row in tab)}
 
 
-def query_time(url: str, repeat: int = 20) -> tuple[float, int]:
+def query_time(url: str, repeat: int = 20) -> tuple[float, list[tuple]]:
+    """Mean time of :data:`QUERY` over ``repeat`` runs after one warm-up, and its rows."""
     from mocapkit.catalog import open_catalog
 
     with open_catalog(url) as cat:
@@ -69,7 +70,7 @@ def query_time(url: str, repeat: int = 20) -> tuple[float, int]:
         t0 = time.perf_counter()
         for _ in range(repeat):
             cols, rows = cat.query(QUERY)
-        return (time.perf_counter() - t0) / repeat, len(rows)
+        return (time.perf_counter() - t0) / repeat, rows
 
 
 def pg_size(url: str) -> int:
@@ -119,7 +120,8 @@ def main() -> None:
     res["speedup_compress_2_workers"] = c1["wall_s"] / c2["wall_s"]
     res["dask_over_local_info"] = infod["wall_s"] / info2["wall_s"]
     res["dask_over_local_compress"] = cd["wall_s"] / c2["wall_s"]
-    q, n = query_time(str(duck))
+    q, duck_rows = query_time(str(duck))
+    n = len(duck_rows)
     res["duckdb"] = {"bytes": duck.stat().st_size, "query_s": q, "query_rows": n}
     print(f"duckdb: {duck.stat().st_size / 1e6:.1f} MB, mean error per method per subject: {q * 1e3:.1f} ms "
           f"({n} rows)")
@@ -133,9 +135,15 @@ def main() -> None:
             m = "fastsw" if "fastsw" in name else "sw"
             run(name, "compress", str(db), "--method", m, "--threshold", "0.05", "--jobs", "2",
                 "--db", a.pg)
-        q, n = query_time(a.pg)
-        res["postgresql"] = {"bytes": pg_size(a.pg), "query_s": q, "query_rows": n}
-        print(f"postgresql: {res['postgresql']['bytes'] / 1e6:.1f} MB, same query: {q * 1e3:.1f} ms ({n} rows)")
+        q, pg_rows = query_time(a.pg)
+        n = len(pg_rows)
+        same = len(pg_rows) == len(duck_rows) and all(
+            x[:2] == y[:2] and x[3] == y[3] and abs(x[2] - y[2]) <= 1e-12 * max(1.0, abs(x[2]))
+            for x, y in zip(duck_rows, pg_rows))
+        res["postgresql"] = {"bytes": pg_size(a.pg), "query_s": q, "query_rows": n,
+                             "same_answer_as_duckdb": same}
+        print(f"postgresql: {res['postgresql']['bytes'] / 1e6:.1f} MB, same query: {q * 1e3:.1f} ms ({n} rows, "
+              f"{'the same answer as' if same else 'NOT the same answer as'} DuckDB)")
     print(f"speed-up with 2 workers: info {res['speedup_info_2_workers']:.2f}x, compress "
           f"{res['speedup_compress_2_workers']:.2f}x; dask / local: info {res['dask_over_local_info']:.2f}, "
           f"compress {res['dask_over_local_compress']:.2f}")
