@@ -142,7 +142,12 @@ def test_batch_over_bad_files_finishes_and_rows_equal_the_single_file_command(me
     assert code == 1, stderr  # some rows are errors, the batch finished
     rows = rows_by_input(out)
     assert sorted(rows) == sorted(str(p) for p in good + bad)
-    assert f"batch info: {len(good)} ok, {len(bad)} errors, 1 skipped" in stdout
+    warned = sorted(p for p, r in rows.items() if r["status"] == "ok" and json.loads(r["record_json"])["warnings"])
+    assert warned  # the TRC excerpt's header counts more frames than it holds
+    assert f"batch info: {len(good)} ok ({len(warned)} with warnings), {len(bad)} errors, 1 skipped" in stdout
+    for p in warned:  # each file read with a warning is named under "warnings" with its first warning
+        first = json.loads(rows[p]["record_json"])["warnings"][0]
+        assert f"  {p}: {first}" in stdout
     for p in bad:
         r = rows[str(p)]
         assert r["status"] == "error" and r["record_json"] is None
@@ -182,11 +187,16 @@ def test_batch_all_ok_exits_0_and_usage_errors_exit_2(tests_data, tmp_path):
         (("batch", "compress", src, "--out", tmp_path / "o2", "-t", "1", "--max-angle", "2"), "exactly one of"),
         (("batch", "filter", src, "--out", tmp_path / "o2"), "--penalty"),
         (("batch", "info", src), "--out"),
+        (("batch", "info", src, "--out", src), "holds the input"),  # OUT is never entered: nothing would run
+        (("batch", "info", src, "--out", tmp_path), "holds the input"),
+        (("batch", "segment", src, "--out", tmp_path / "o2"), "no input that segment reads"),
+        (("batch", "segment", src, "--out", tmp_path / "o2", "-m", "mlp"), "--train"),  # checked before any file
+        (("batch", "segment", src, "--out", tmp_path / "o2", "--downsample", "2", "-m", "pca"), "--downsample"),
     ]:
         code, stdout, stderr = run(*args)
         assert code == 2, (args, stderr)
         assert stderr.startswith("error: ") and named in stderr and stderr.count("\n") == 1, stderr
-    assert not (tmp_path / "o2" / "journal.jsonl").exists()  # refused before any work
+    assert not (tmp_path / "o2").exists()  # refused before any work: not even the OUT folder is made
 
 
 def test_batch_compress_filter_segment_rows_and_outputs_equal_the_single_file_commands(tests_data, tmp_path):

@@ -142,3 +142,56 @@ def test_a_killed_worker_costs_no_row(takes, tmp_path):
     rows = read_results(out / "results.parquet")
     assert [r["input"] for r in rows] == sorted(str(p) for p in takes.rglob("*.amc"))
     assert all(r["status"] == "ok" for r in rows), [r["error"] for r in rows if r["status"] != "ok"]
+
+
+def _children(pid: int) -> set[int]:
+    """Every live process of the batch's process group (its forkserver and workers)."""
+    out = set()
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                if os.getpgid(int(d.name)) == pid and int(d.name) != pid:
+                    out.add(int(d.name))
+            except (ProcessLookupError, PermissionError):
+                pass
+    return out
+
+
+def test_ctrl_c_twice_stops_at_once_says_how_to_resume_and_resume_finishes(takes, tmp_path):
+    """Ctrl-C as a terminal sends it (SIGINT to the whole process group), twice: the batch exits 130 at once
+    with one line naming --resume, its workers are gone, and --resume runs only the rest."""
+    out = tmp_path / "out"
+    args = ["batch", "compress", takes, "--out", out, "-t", "0.01", "--jobs", "2"]
+    env = _env(tmp_path)
+    proc = _start(args, env)
+    try:
+        _wait_rows(out / "journal.jsonl", proc, 2)
+        os.killpg(proc.pid, signal.SIGINT)
+        time.sleep(0.3)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGINT)
+        t0 = time.monotonic()
+        _, stderr = proc.communicate(timeout=30)
+        assert time.monotonic() - t0 < 10  # no hang, no waiting for the inputs in flight
+    finally:
+        _stop(proc)
+    assert proc.returncode == 130, stderr
+    last = stderr.decode().strip().splitlines()[-1]
+    assert last.startswith("interrupted: ") and "--resume" in last and str(out / "journal.jsonl") in last
+    deadline = time.monotonic() + 5  # the forkserver and resource tracker end when they see the main gone
+    while _children(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    left = {p: Path(f"/proc/{p}/cmdline").read_bytes().replace(b"\0", b" ")[:200] for p in _children(proc.pid)}
+    assert not left  # no worker left running
+    done = read_journal(out / "journal.jsonl")
+    assert 2 <= len(done) < N_TAKES and all(r["status"] == "ok" for r in done)
+    r = subprocess.run([*MOCAPKIT, *map(str, args), "--resume"], capture_output=True, text=True, env=env,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert f"{len(done)} kept from an earlier run" in r.stdout
+    rows = read_results(out / "results.parquet")
+    assert len(rows) == N_TAKES == len({x["input"] for x in rows})
+    kept = {x["input"]: x for x in done}
+    for x in rows:  # the rows finished before Ctrl-C are the ones kept, unchanged
+        if x["input"] in kept:
+            assert x == kept[x["input"]]

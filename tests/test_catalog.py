@@ -531,3 +531,36 @@ def test_cli_on_postgresql(tmp_path, tests_data):
                                  "GROUP BY kind ORDER BY kind", "--format", "json")
         assert code == 0, err
         assert json.loads(out) == [{"kind": "markers", "n": 1}, {"kind": "skeletal", "n": 2}]
+
+
+def test_cli_query_cannot_change_the_catalog(catalog_url, dataset):
+    """``catalog query`` opens the catalog read-only: a DELETE is an error and every row stays."""
+    _, rows = dataset
+    _add(catalog_url, rows)
+    before = _counts(catalog_url)
+    assert before["runs"] > 0
+    code, out, err = cli_run("catalog", "query", "--db", catalog_url, "DELETE FROM runs")
+    assert code == 2 and err.startswith("error: ") and err.count("\n") == 1, err
+    assert _counts(catalog_url) == before
+    code, out, err = cli_run("catalog", "query", "--db", catalog_url, "SELECT count(*) AS n FROM runs",
+                             "--format", "json")
+    assert code == 0 and json.loads(out) == [{"n": before["runs"]}], err
+
+
+def test_cli_import_reports_files_read_with_warnings(tmp_path, tests_data):
+    """A file read with a warning (here a TRC whose header counts more frames than it holds) is registered,
+    and the warning is printed, not lost."""
+    from mocapkit.jobs import run_job
+
+    root = tmp_path / "lab"
+    root.mkdir()
+    trc = root / "walk.trc"
+    shutil.copy(tests_data / "opensim" / "walk_free_01-first20.trc", trc)
+    shutil.copy(tests_data / "bvh" / "walk-meredith-60.bvh", root / "walk.bvh")
+    warnings = run_job("info", trc, {})["warnings"]
+    assert warnings and not run_job("info", root / "walk.bvh", {})["warnings"]
+    code, out, err = cli_run("catalog", "import", root, "--db", tmp_path / "m.duckdb")
+    assert code == 0, err
+    assert "2 recordings registered (1 with warnings), 0 errors" in out
+    for w in warnings:
+        assert f"warning: {trc}: {w}" in err

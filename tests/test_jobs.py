@@ -202,7 +202,7 @@ def test_batch_lists_inputs_the_job_does_not_read_as_skipped(files, tmp_path):
     assert res.rows[0]["status"] == "ok", res.rows[0]["error"]
     skipped = {Path(p).name: why for p, why in res.skipped}
     assert set(skipped) == {files["tsv"].name, files["imu"].name, files["asf"].name}
-    assert skipped[files["tsv"].name] == "segment reads skeletons; this is marker files"
+    assert skipped[files["tsv"].name] == "segment reads skeletons; this is a marker file"
 
 
 def test_segment_finds_the_labels_beside_the_take(files):
@@ -214,3 +214,22 @@ def test_segment_finds_the_labels_beside_the_take(files):
     plain = run_job("segment", files["amc"], opts)
     assert beside["segments"] == given["segments"] and beside["scores"] == given["scores"]
     assert any(s["label"] for s in beside["segments"]) and all(s["label"] is None for s in plain["segments"])
+
+
+def test_not_read_by_follows_the_options_and_skips_tables_without_orientation(files, tmp_path):
+    from mocapkit.jobs import not_read_by
+
+    assert "skeletons take --max-position-error" in not_read_by("compress", files["bvh"], {"max_angle": 1.0})
+    assert "IMU data takes --max-angle" in not_read_by("compress", files["imu"], {"max_position_error": 1.0})
+    assert not_read_by("compress", files["bvh"], {"max_position_error": 1.0}) is None
+    assert not_read_by("compress", files["imu"], {"threshold": 0.1}) is None
+    gyro = tmp_path / "Inertial.csv"  # x-io's gyroscope/accelerometer export: named columns, no orientation
+    gyro.write_text("Timestamp (us),Gyroscope X (deg/s),Gyroscope Y (deg/s),Gyroscope Z (deg/s)\n0,1,2,3\n")
+    why = not_read_by("info", gyro, {})
+    assert why.startswith("no orientation columns (columns: Timestamp (us), Gyroscope X")
+    with pytest.raises(MocapError):  # the reason is true: the job fails on it
+        run_job("info", gyro, {})
+    assert not_read_by("filter", gyro, {}) is None  # filter reads it as plain columns
+    for name, content in (("garbage.csv", bytes(range(256))), ("empty.csv", b""), ("nohead.csv", b"1,2,3\n4,5,6\n")):
+        (tmp_path / name).write_bytes(content)  # not a table with a header: left to the job, an error row
+        assert not_read_by("info", tmp_path / name, {}) is None, name

@@ -78,8 +78,9 @@ def _progress():
                       markup=False, highlight=False)
 
     def close():
-        if "prog" in state:
-            state["prog"].stop()
+        prog = state.pop("prog", None)
+        if prog is not None:
+            prog.stop()
 
     return report, close
 
@@ -87,12 +88,17 @@ def _progress():
 def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: Optional[int], engine: str,
          scheduler: Optional[str], resume: bool, db: Optional[str]) -> None:
     from mocapkit.batch import run_batch
+    from mocapkit.batch.engine import BatchInterrupted
 
     n = jobs if jobs is not None else (os.cpu_count() or 1)
     report, close = _progress()
     try:
         res = run_batch(job, inputs, options, out, jobs=n, engine=engine, scheduler=scheduler, resume=resume,
                         db=db, report=report)
+    except BatchInterrupted as e:
+        close()
+        err.print(str(e), markup=False, highlight=False, soft_wrap=True)
+        raise typer.Exit(130) from None
     finally:
         close()
     _summary(job, res)
@@ -100,11 +106,24 @@ def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: Optional[i
         raise typer.Exit(1)
 
 
+MAX_WARNINGS_SHOWN = 20
+
+
+def _n(k: int, word: str) -> str:
+    return f"{k} {word}{'' if k == 1 else 's'}"
+
+
 def _summary(job: str, res) -> None:
     say = lambda s: console.print(s, markup=False, highlight=False, soft_wrap=True)  # noqa: E731
+    import json
+
     kept = f", {res.kept} kept from an earlier run" if res.kept else ""
-    say(f"batch {job}: {res.ok} ok, {len(res.errors)} errors, {len(res.skipped)} skipped{kept} "
-        f"in {res.seconds:.1f} s")
+    warned = [(r["input"], w) for r in res.rows if r["status"] == "ok" and r.get("record_json")
+              for w in json.loads(r["record_json"]).get("warnings", [])]
+    n_warned = len({p for p, _ in warned})
+    say(f"batch {job}: {res.ok} ok{f' ({n_warned} with warnings)' if n_warned else ''}, "
+        f"{_n(len(res.errors), 'error')}, "
+        f"{len(res.skipped)} skipped{kept} in {res.seconds:.1f} s")
     say(f"results: {res.results_path}")
     if res.catalog is not None:
         say(f"catalog: {res.catalog.get('runs', 0)} runs, {res.catalog.get('recordings', 0)} recordings written")
@@ -113,6 +132,13 @@ def _summary(job: str, res) -> None:
         for r in res.errors:  # most errors name the file first already
             e = r["error"] or ""
             say(f"  {e}" if e.startswith(r["input"]) else f"  {r['input']}: {e}")
+    if warned:
+        say("warnings (read, but check them):")
+        for p, w in warned[:MAX_WARNINGS_SHOWN]:
+            say(f"  {p}: {w}")
+        if len(warned) > MAX_WARNINGS_SHOWN:
+            say(f"  ... {len(warned) - MAX_WARNINGS_SHOWN} more (record_json in the results, runs.warnings in "
+                "the catalog)")
     if res.skipped:
         say("skipped:")
         for p, why in res.skipped:

@@ -60,10 +60,10 @@ def query(
     fmt: Annotated[Format, typer.Option("--format", help="table (rich, on stdout), csv, or json (a list of "
                                                          "objects).")] = Format.table,
 ) -> None:
-    """Run one SQL statement on the catalog and print its result."""
+    """Run one SQL query on the catalog (opened read-only) and print its result."""
     from mocapkit.catalog import open_catalog
 
-    with open_catalog(db, create=False) as cat:
+    with open_catalog(db, read_only=True) as cat:
         cols, rows = cat.query(sql)
     if fmt is Format.json:
         print(_json([{c: _value(v) for c, v in zip(cols, r)} for r in rows], "catalog query --format json"))
@@ -113,9 +113,13 @@ def import_cmd(
                 err.print(f"error: {error}", markup=False, highlight=False, soft_wrap=True)
 
         res = import_folder(cat, inputs, asf=asf, on_file=on_file)
+    for path, w in res.warnings:
+        err.print(f"warning: {path}: {w}", markup=False, highlight=False, soft_wrap=True)
     for path, why in res.skipped:
         err.print(f"skipped: {path}: {why}", markup=False, highlight=False, soft_wrap=True)
-    console.print(f"{len(res.registered)} recording{'s' if len(res.registered) != 1 else ''} registered, "
+    n_warned = len({p for p, _ in res.warnings})
+    console.print(f"{len(res.registered)} recording{'s' if len(res.registered) != 1 else ''} registered"
+                  f"{f' ({n_warned} with warnings)' if n_warned else ''}, "
                   f"{len(res.errors)} error{'s' if len(res.errors) != 1 else ''}, {len(res.skipped)} skipped "
                   f"in {redact(db)}", markup=False, highlight=False)
     if not res.registered:

@@ -30,12 +30,25 @@ from typing import Callable, Iterator
 from mocapkit.jobs.inputs import expand_inputs, output_bases
 from mocapkit.batch.journal import JOURNAL_NAME, Journal, read_journal
 from mocapkit.batch.results import RESULTS_NAME, read_results, write_results
-from mocapkit.batch.worker import configure_numba_cache, failed_row, options_hash, run_one
+from mocapkit.batch.worker import configure_numba_cache, failed_row, ignore_interrupts, options_hash, run_one
 from mocapkit.errors import InvalidParameterError, MocapError
 
 ENGINES = ("local", "dask")
 #: the error of an input whose worker process died while running it (alone in its own pool)
 WORKER_DIED = "the worker process died while processing this input (it crashed or was killed)"
+
+
+#: how long to try reaching a --scheduler (a refused connection is retried by distributed until then)
+SCHEDULER_TIMEOUT_S = 10
+
+
+class BatchInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a batch: ``done`` of ``total`` inputs ran (their rows are in ``journal``)."""
+
+    def __init__(self, done: int, total: int, journal: Path):
+        super().__init__(f"interrupted: {done} of {total} inputs done, their rows are in {journal}; run the same "
+                         "command with --resume to finish the rest")
+        self.done, self.total, self.journal = done, total, journal
 
 
 @dataclass
@@ -126,17 +139,28 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
     the ok rows of an earlier batch in ``out`` whose job, input, content hash and options hash match, and
     runs the rest. Every usage error is raised before any work.
     """
+    from mocapkit.jobs import check_options as check_job_options
+
     t0 = time.perf_counter()
     check_options(job, engine, jobs, scheduler)
-    out = _prepare_out(Path(out))
+    check_job_options(job, options)
+    out = Path(os.path.abspath(out))
+    if out.exists() and not out.is_dir():
+        raise InvalidParameterError(f"--out {out}: not a folder")
+    _refuse_inputs_in_out(inputs, out)
     found = expand_inputs(list(inputs), out)
-    found.files = _read_by_job(job, found)
+    found.files = _read_by_job(job, found, options)
+    previous = previous_rows(out) if resume and out.is_dir() else []
+    if not found.files:
+        why = "; ".join(f"{p}: {w}" for p, w in found.skipped[:3]) + (" ..." if len(found.skipped) > 3 else "")
+        raise InvalidParameterError(f"no input that {job} reads" + (f" (skipped: {why})" if why else ""))
     catalog = _open_catalog(db) if db is not None else None
+    out = _prepare_out(out)
     ohash = options_hash(options)
     kept: dict[Path, dict] = {}
     if resume:
         done = {}
-        for r in previous_rows(out):
+        for r in previous:
             if r.get("job") == job and r.get("options_hash") == ohash:
                 done[r["input"]] = r if r.get("status") == "ok" else None
         for f in found.files:
@@ -150,9 +174,8 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
     total, n_err = len(found.files), 0
     journal = Journal(out / JOURNAL_NAME, fresh=not resume)
     feed = _CatalogFeed(catalog, rows)  # the rows kept by --resume first, then the new ones as they come
+    runner = _local(job, tasks, options, jobs) if engine == "local" else _dask(job, tasks, options, jobs, scheduler)
     try:
-        runner = _local(job, tasks, options, jobs) if engine == "local" else _dask(job, tasks, options, jobs,
-                                                                                   scheduler)
         for row in runner:
             journal.append(row)
             rows.append(row)
@@ -160,7 +183,15 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
             n_err += row["status"] != "ok"
             if report is not None:
                 report(row, len(rows), n_err, total)
+    except KeyboardInterrupt:
+        runner.close()  # the workers stop now
+        journal.close()
+        try:
+            feed.close()  # the rows finished so far reach the catalog too
+        finally:
+            raise BatchInterrupted(len(rows) - len(kept), total - len(kept), out / JOURNAL_NAME) from None
     finally:
+        runner.close()
         journal.close()
     write_results(out / RESULTS_NAME, rows)
     rows.sort(key=lambda r: r["input"])
@@ -226,7 +257,17 @@ class _CatalogFeed:
             self.catalog.close()
 
 
-def _read_by_job(job: str, found) -> list[Path]:
+def _refuse_inputs_in_out(inputs, out: Path) -> None:
+    """An OUT folder that is an input folder or holds an input is refused before any work: the batch never
+    enters OUT (it holds its own outputs), so those inputs would silently not run."""
+    for a in inputs:
+        p = os.path.abspath(a)
+        if os.path.exists(p) and (p == str(out) or p.startswith(str(out).rstrip(os.sep) + os.sep)):
+            raise InvalidParameterError(f"--out {out}: holds the input {a}; choose a folder outside the inputs "
+                                        "(the outputs mirror their tree under it)")
+
+
+def _read_by_job(job: str, found, options: dict) -> list[Path]:
     """The inputs ``job`` reads; the others join ``found.skipped`` with the reason
     (:func:`mocapkit.jobs.not_read_by`: ``segment`` on a C3D file, ``compress`` on markers...)."""
     from mocapkit.jobs import not_read_by
@@ -234,7 +275,7 @@ def _read_by_job(job: str, found) -> list[Path]:
     keep = []
     for f in found.files:
         try:
-            why = not_read_by(job, f)
+            why = not_read_by(job, f, options)
         except (OSError, MocapError):  # unreadable: the job reports it in its row
             why = None
         if why is None:
@@ -258,13 +299,14 @@ def _context():
 
 def _local(job: str, tasks: list[Task], options: dict, n: int) -> Iterator[dict]:
     """The local engine: a process pool of ``n`` workers (see the module docstring)."""
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
 
     ctx = _context()
     pending = deque(tasks)
-    pool = ProcessPoolExecutor(n, mp_context=ctx)
+    pool = _pool(n, ctx)
     inflight: dict = {}
+    finished = False
     try:
         while pending or inflight:
             while pending and len(inflight) < 2 * n:
@@ -290,14 +332,34 @@ def _local(job: str, tasks: list[Task], options: dict, n: int) -> Iterator[dict]
                         suspects.append(t)
                 pool.shutdown(wait=True)
                 yield from _isolated(job, suspects, options, n, ctx)
-                pool = ProcessPoolExecutor(n, mp_context=ctx)
+                pool = _pool(n, ctx)
+        finished = True
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        if finished:
+            pool.shutdown(wait=True)
+        else:  # Ctrl-C, or the caller stopped: the workers are killed, not waited for
+            _stop(pool)
+
+
+def _pool(n: int, ctx):
+    from concurrent.futures import ProcessPoolExecutor
+
+    return ProcessPoolExecutor(n, mp_context=ctx, initializer=ignore_interrupts)
+
+
+def _stop(pool) -> None:
+    """Kill a pool's workers at once (their inputs are not journaled and run again on ``--resume``)."""
+    for p in list((getattr(pool, "_processes", None) or {}).values()):
+        try:
+            p.kill()
+        except (OSError, AttributeError):
+            pass
+    pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _isolated(job: str, tasks: list[Task], options: dict, n: int, ctx) -> Iterator[dict]:
     """Run each of ``tasks`` in a pool of its own (``n`` at a time): an input whose worker dies is named."""
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
 
     pending = deque(tasks)
@@ -306,7 +368,7 @@ def _isolated(job: str, tasks: list[Task], options: dict, n: int, ctx) -> Iterat
         while pending or running:
             while pending and len(running) < n:
                 t = pending.popleft()
-                pool = ProcessPoolExecutor(1, mp_context=ctx)
+                pool = _pool(1, ctx)
                 running[pool.submit(run_one, job, str(t.path), options, str(t.base))] = (t, pool)
             done, _ = wait(running, return_when=FIRST_COMPLETED)
             for f in done:
@@ -322,7 +384,7 @@ def _isolated(job: str, tasks: list[Task], options: dict, n: int, ctx) -> Iterat
                 yield row
     finally:
         for _, pool in running.values():
-            pool.shutdown(wait=True, cancel_futures=True)
+            _stop(pool)
 
 
 def _dask(job: str, tasks: list[Task], options: dict, n: int, scheduler: str | None) -> Iterator[dict]:
@@ -333,7 +395,7 @@ def _dask(job: str, tasks: list[Task], options: dict, n: int, scheduler: str | N
     cluster = None
     if scheduler is not None:
         try:
-            client = distributed.Client(scheduler)  # waits distributed.comm.timeouts.connect (dask config)
+            client = distributed.Client(scheduler, timeout=SCHEDULER_TIMEOUT_S)
         except (OSError, TimeoutError) as e:
             raise MocapError(f"--scheduler {scheduler}: cannot connect ({e})") from None
     else:

@@ -76,6 +76,14 @@ def configure_numba_cache() -> str | None:
     return d
 
 
+def ignore_interrupts() -> None:
+    """A pool worker's initializer: Ctrl-C (SIGINT, sent by a terminal to the whole process group) is the
+    main process's to handle; it stops the workers itself."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _version() -> str:
     from mocapkit import __version__
 

@@ -217,12 +217,16 @@ class Catalog:
         return f"Catalog({redact(self.url)!r}, engine={self.engine!r})"
 
     # -- schema ------------------------------------------------------------------------------------
-    def ensure_schema(self) -> None:
-        """Make the tables when missing; refuse a catalog of another schema version."""
+    def ensure_schema(self, read_only: bool = False) -> None:
+        """Make the tables when missing (``read_only``: only check); refuse a catalog of another schema
+        version."""
         with self.transaction():
-            for stmt in schema.ddl():
-                self.execute(stmt)
+            if not read_only:
+                for stmt in schema.ddl():
+                    self.execute(stmt)
             _, rows = self.query("SELECT version FROM schema_version")
+            if not rows and read_only:
+                raise MocapError(f"{redact(self.url)}: an empty catalog (no schema version): nothing to query")
             if not rows:
                 self.execute("INSERT INTO schema_version (version) VALUES (?)", (schema.SCHEMA_VERSION,))
             elif len(rows) != 1 or rows[0][0] != schema.SCHEMA_VERSION:
@@ -235,12 +239,16 @@ def _duckdb_path(url: str) -> str:
     return url[len("duckdb:"):] if url.startswith("duckdb:") else url
 
 
-def connect(url: str | os.PathLike, create: bool = True) -> Catalog:
+def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False) -> Catalog:
     """Open the catalog at ``url`` (a ``postgresql://`` URL or a DuckDB file path) and make its tables.
 
     ``create=False`` refuses a DuckDB file that does not exist yet (``catalog query`` on a typo'd path)
-    instead of making an empty catalog. Raises :class:`MocapError` naming the URL (password hidden).
+    instead of making an empty catalog. ``read_only=True`` (``catalog query``) opens it so that a statement
+    cannot change it (DuckDB ``read_only``; PostgreSQL ``default_transaction_read_only``): a guard against
+    a slip, not a permission. Raises :class:`MocapError` naming the URL (password hidden).
     """
+    if read_only:
+        create = False
     url = os.fspath(url)
     shown = redact(url)
     if not url:
@@ -252,7 +260,13 @@ def connect(url: str | os.PathLike, create: bool = True) -> Catalog:
             raise MocapError(f"{shown}: a PostgreSQL catalog needs psycopg: pip install "
                              "'mocapkit[postgres]'") from None
         try:
-            conn = psycopg.connect(url, connect_timeout=CONNECT_TIMEOUT_S, autocommit=True)
+            extra = {}
+            if read_only:  # added to the URL's own options (a search_path, say)
+                from psycopg.conninfo import conninfo_to_dict
+
+                given = conninfo_to_dict(url).get("options") or ""
+                extra["options"] = f"{given} -c default_transaction_read_only=on".strip()
+            conn = psycopg.connect(url, connect_timeout=CONNECT_TIMEOUT_S, autocommit=True, **extra)
         except (psycopg.Error, ValueError) as e:
             raise MocapError(f"{shown}: cannot open the catalog: {_clean(e, url)}") from None
         errors: tuple = (psycopg.Error,)
@@ -272,7 +286,7 @@ def connect(url: str | os.PathLike, create: bool = True) -> Catalog:
         if not path.parent.is_dir():
             raise MocapError(f"{shown}: the folder {path.parent} does not exist")
         try:
-            conn = duckdb.connect(str(path))
+            conn = duckdb.connect(str(path), read_only=read_only)
         except duckdb.Error as e:
             text = _clean(e, url)
             if "lock" in text.lower():
@@ -281,7 +295,7 @@ def connect(url: str | os.PathLike, create: bool = True) -> Catalog:
         errors = (duckdb.Error,)
         cat = Catalog(url, "duckdb", conn, errors)
     try:
-        cat.ensure_schema()
+        cat.ensure_schema(read_only)
     except BaseException:
         cat.close()
         raise

@@ -142,9 +142,12 @@ def add_rows(catalog: Catalog, batch_rows: Iterable[dict]) -> dict:
     for rid, row in by_id.items():
         record = json.loads(row["record_json"]) if row.get("record_json") else None
         method = record.get("method") if isinstance(record, dict) else None
-        runs.append((rid, row.get("job"), method if isinstance(method, str) else None, row.get("input"), row.get("content_hash"), row.get("options_json"),
-                     row.get("options_hash"), row.get("mocapkit_version"), utc_naive(row.get("started_at")),
-                     _number(row.get("seconds")), row.get("status"), row.get("error")))
+        warned = record.get("warnings") if isinstance(record, dict) else None
+        runs.append((rid, row.get("job"), method if isinstance(method, str) else None, row.get("input"),
+                     row.get("content_hash"), row.get("options_json"), row.get("options_hash"),
+                     row.get("mocapkit_version"), utc_naive(row.get("started_at")), _number(row.get("seconds")),
+                     row.get("status"), row.get("error"),
+                     json.dumps(warned, allow_nan=False) if isinstance(warned, list) and warned else None))
         if not isinstance(record, dict):
             continue
         r = record.get("recording")

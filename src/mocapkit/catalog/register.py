@@ -21,21 +21,27 @@ BATCH = 200
 @dataclass
 class ImportResult:
     """``registered``: paths written; ``errors``: ``(path, one-line error)``; ``skipped``: ``(path, reason)``
-    for files that are no recordings (ASF skeletons, labels, unknown suffixes)."""
+    for files that are no recordings (ASF skeletons, labels, unknown suffixes); ``warnings``: ``(path,
+    warning)`` of files registered although the reader found something odd (a truncated file...)."""
 
     registered: list[str] = field(default_factory=list)
+    warnings: list[tuple[str, str]] = field(default_factory=list)
     errors: list[tuple[str, str]] = field(default_factory=list)
     skipped: list[tuple[str, str]] = field(default_factory=list)
 
 
-def describe_input(path: str | os.PathLike, asf: Path | None = None) -> tuple[dict, str, int | None]:
-    """``(R, content_hash, bytes)`` of one input (raises what the reader raises)."""
+def describe_input(path: str | os.PathLike, asf: Path | None = None,
+                   warnings: list | None = None) -> tuple[dict, str, int | None]:
+    """``(R, content_hash, bytes)`` of one input (raises what the reader raises); the reader's warnings
+    are appended to ``warnings`` when given."""
     from mocapkit.catalog.ingest import input_bytes
     from mocapkit.jobs import run_job
     from mocapkit.jobs.recording import content_hash
 
     h = content_hash(path)
     record = run_job("info", Path(path), {"asf": None if asf is None else str(asf)})
+    if warnings is not None:
+        warnings += record.get("warnings", [])
     return {**record["recording"], "path": os.fspath(path)}, h, input_bytes(os.fspath(path))
 
 
@@ -61,7 +67,9 @@ def import_folder(catalog: Catalog, inputs: list[str | os.PathLike], asf: Path |
 
     for f in found.files:
         try:
-            pending.append(describe_input(f, asf))
+            found_warnings: list[str] = []
+            pending.append(describe_input(f, asf, found_warnings))
+            result.warnings += [(os.fspath(f), w) for w in found_warnings]
             error = None
         except (Exception, SystemExit) as e:  # noqa: BLE001 - every failure is this file's error line
             error = error_line(e)

@@ -17,7 +17,8 @@ Tables (``recording`` = ``(path, content_hash)``; a file that changes is a new r
     :func:`mocapkit.catalog.ingest.run_id`), job, the record's ``method`` (compress, segment; else NULL),
     input ``path`` and ``content_hash`` (``NULL`` when the
     input could not be read), options as canonical JSON and its hash, mocapkit version, ``started_at``,
-    ``seconds``, ``status`` (``ok``/``error``) and the one-line ``error``.
+    ``seconds``, ``status`` (``ok``/``error``), the one-line ``error`` and the record's ``warnings`` (what the
+    reader or the job found odd but handled, a JSON list; NULL when none).
 ``metrics``
     the numeric scalar fields of a run's record (``signal`` NULL) and of each item of its ``signals``
     (``signal`` = the item's name): ``icr``, ``aad_deg``, ``max_position_error_cm``, ``n_knots``...
@@ -46,7 +47,7 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
                  ("tracked_point", T), ("units", T)),
     "runs": (("run_id", T), ("job", T), ("method", T), ("path", T), ("content_hash", T), ("options_json", T),
              ("options_hash", T), ("mocapkit_version", T), ("started_at", TS), ("seconds", F), ("status", T),
-             ("error", T)),
+             ("error", T), ("warnings", T)),
     "metrics": (("run_id", T), ("signal", T), ("name", T), ("value", F)),
     "segments": (("run_id", T), ("idx", I), ("t0", F), ("t1", F), ("frame0", I), ("frame1", I), ("label", T),
                  ("method", T)),

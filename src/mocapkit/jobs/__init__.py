@@ -9,20 +9,25 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from mocapkit.errors import InvalidParameterError
+from mocapkit.errors import InvalidParameterError, MocapError
+from mocapkit.jobs.compress import check_options as _compress_checks
 from mocapkit.jobs.compress import compress_job
+from mocapkit.jobs.filter import check_options as _filter_checks
 from mocapkit.jobs.filter import filter_job
 from mocapkit.jobs.info import info_job
+from mocapkit.jobs.segment import check_options as _segment_checks
 from mocapkit.jobs.segment import segment_job
 
 JOBS = {"info": info_job, "compress": compress_job, "filter": filter_job, "segment": segment_job}
 
-__all__ = ["JOBS", "batch_output", "compress_job", "filter_job", "info_job", "not_read_by", "run_job", "segment_job"]
+__all__ = ["JOBS", "batch_output", "check_options", "compress_job", "filter_job", "info_job", "not_read_by", "run_job",
+           "segment_job"]
 
 #: the kinds of input (``mocapkit.io.loaders.kind_of``) each job reads
 READS = {"info": ("imu", "skeletal", "markers", "table"), "compress": ("imu", "skeletal"),
          "filter": ("markers",), "segment": ("skeletal",)}
 _KIND_WORDS = {"imu": "IMU data", "skeletal": "skeletons", "markers": "marker files", "table": "OpenSim tables"}
+_KIND_WORD = {"imu": "IMU data", "skeletal": "a skeleton", "markers": "a marker file", "table": "an OpenSim table"}
 
 
 def run_job(job: str, path: str | Path, options: dict, output: str | Path | None = None) -> dict:
@@ -33,24 +38,73 @@ def run_job(job: str, path: str | Path, options: dict, output: str | Path | None
     return JOBS[job](Path(path), output=None if output is None else Path(output), **options)
 
 
-def not_read_by(job: str, path: str | Path) -> str | None:
-    """Why ``job`` does not read ``path`` (e.g. ``segment`` and a C3D file), judged by the file's kind
-    alone; None when it does. A batch lists such inputs as skipped instead of running them into errors.
-    ``filter`` reads marker files and CSV text with a time column (IMU data included, as plain columns)."""
+def _named_columns_only(path: Path) -> list[str] | None:
+    """The header cells of a text table whose first line names its columns, or None (binary, empty,
+    undecodable, no header): a table mocapkit could read but holding no orientation columns is skipped,
+    anything else is left to the job, which reports the error."""
+    import re
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(65536)
+        line = next((ln for ln in head.decode("utf-8").splitlines() if ln.strip()), "")
+    except (OSError, UnicodeDecodeError):
+        return None
+    cells = [c.strip().strip('"') for c in re.split(r"[,;\t]", line)]
+    if len(cells) < 2 or not all(re.search(r"[A-Za-z]", c) for c in cells if c):
+        return None
+    return cells
+
+
+def not_read_by(job: str, path: str | Path, options: dict | None = None) -> str | None:
+    """Why ``job`` does not read ``path`` (``segment`` and a C3D file...), judged by the file's kind and
+    the options; None when it does. A batch lists such inputs as skipped (with this reason) instead of
+    running them into errors. ``filter`` reads marker files and CSV text with a time column;
+    ``compress --max-angle`` is for IMU data, ``--max-position-error`` for skeletons; an IMU-looking table
+    whose named columns hold no orientation (x-io ``Inertial.csv``: gyroscope, accelerometer) is not read
+    by ``info`` or ``compress``."""
     from mocapkit.io.loaders import kind_of
 
+    options = options or {}
     path = Path(path)
     kind = kind_of(path)
-    if job == "filter" and kind in ("imu", "table"):
-        if path.is_file() and path.suffix.lower() in (".csv", ".txt"):
-            return None
-        return f"filter reads marker files and CSV tables with a time column; this is {_KIND_WORDS[kind]}" + (
-            "" if path.is_file() else " (a folder)")
-    if kind in READS.get(job, ()):
-        return None
     if job == "filter":
-        return f"filter reads marker files and CSV tables with a time column; this is {_KIND_WORDS[kind]}"
-    return f"{job} reads {' and '.join(_KIND_WORDS[k] for k in READS[job])}; this is {_KIND_WORDS[kind]}"
+        if kind == "markers" or (kind in ("imu", "table") and path.is_file()
+                                 and path.suffix.lower() in (".csv", ".txt")):
+            return None
+        return (f"filter reads marker files and CSV tables with a time column; this is "
+                f"{_KIND_WORD[kind]}{'' if path.is_file() else ' (a folder)'}")
+    if kind not in READS.get(job, ()):
+        return f"{job} reads {' and '.join(_KIND_WORDS[k] for k in READS[job])}; this is {_KIND_WORD[kind]}"
+    if job == "compress" and kind == "skeletal" and options.get("max_angle") is not None:
+        return "--max-angle is a bound for IMU data; skeletons take --max-position-error CM"
+    if job == "compress" and kind == "imu" and options.get("max_position_error") is not None:
+        return "--max-position-error is a bound for skeletons; IMU data takes --max-angle DEG"
+    if kind == "imu" and path.is_file() and path.suffix.lower() in (".csv", ".txt", ".tsv"):
+        from mocapkit.io.imu_columns import ColumnOptions
+        from mocapkit.io.imucsv import detect_format
+
+        cols = {k: options.get(k) for k in ("time_column", "quaternion_columns", "scalar_last", "time_unit")}
+        try:
+            found = detect_format(path, ColumnOptions(**{k: v for k, v in cols.items() if v}))
+        except MocapError:
+            return None  # a bad column option: the job says so
+        header = None if found is not None else _named_columns_only(path)
+        if header is not None:
+            shown = ", ".join(header[:6]) + (", ..." if len(header) > 6 else "")
+            return f"no orientation columns (columns: {shown}); mocapkit reads orientations (quaternions, " \
+                   "rotation matrices, Euler angles)"
+    return None
+
+
+def check_options(job: str, options: dict) -> None:
+    """Refuse, before any input is read, options that no input could make right (e.g. ``segment --method
+    mlp`` without ``--train``): the checks each job makes first, without a file."""
+    if job not in JOBS:
+        raise InvalidParameterError(f"unknown job {job!r}: one of {', '.join(JOBS)}")
+    check = {"compress": _compress_checks, "filter": _filter_checks, "segment": _segment_checks}.get(job)
+    if check is not None:
+        check(**{k: v for k, v in options.items() if k in check.__code__.co_varnames})
 
 
 def batch_output(job: str, path: str | Path, options: dict, base: str | Path) -> Path | None:

@@ -37,6 +37,19 @@ def _signal_record(name: str, source: str, comp, metrics, mode: str, target) -> 
     }
 
 
+METHODS = ("fastsw", "sw", "cplr", "swing", "anglesw", "optimal")
+
+
+def check_options(method: str = "fastsw", threshold=None, target_icr=None, max_angle=None,
+                  max_position_error=None) -> None:
+    """The option checks that need no file: a known method and exactly one control."""
+    if method not in METHODS:
+        raise InvalidParameterError(f"--method {method!r}: one of {', '.join(METHODS)}")
+    if sum(x is not None for x in (threshold, target_icr, max_angle, max_position_error)) != 1:
+        raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-angle (IMU data) or "
+                                    "--max-position-error (skeletons)")
+
+
 def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None = None,
                  target_icr: float | None = None, max_angle: float | None = None,
                  max_segment_length: int | None = None, rate: float | None = None, time_column: str | None = None,
@@ -54,6 +67,7 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
     """
     from mocapkit.io.loaders import kind_of
 
+    check_options(method, threshold, target_icr, max_angle, max_position_error)
     path = Path(path)
     output = None if output is None else Path(output)
     check_outputs(path, (output, "--output"), inputs=(asf,),

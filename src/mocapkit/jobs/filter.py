@@ -74,6 +74,19 @@ def _table_recording(tab, path: Path) -> dict:
                          for c in tab.columns]}
 
 
+def check_options(order: int = 2, penalty: float | None = None, auto: bool = False, solver: str = "exact",
+                  markers: str | None = None, columns: str | None = None) -> None:
+    """The option checks that need no file."""
+    if (penalty is None) == (not auto):
+        raise InvalidParameterError("give exactly one of --penalty K or --auto")
+    if order < 0:
+        raise InvalidParameterError("--order must be >= 0")
+    if solver not in ("exact", "iterative"):
+        raise InvalidParameterError(f"--solver {solver!r}: exact or iterative")
+    if markers is not None and columns is not None:
+        raise InvalidParameterError("give --markers or --columns, not both")
+
+
 def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto: bool = False,
                solver: str = "exact", markers: str | None = None, columns: str | None = None,
                output: Path | None = None, plot: Path | None = None, progress: Progress = no_progress) -> dict:
@@ -87,12 +100,9 @@ def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto
     from mocapkit.io.atomic import is_device_or_pipe
     from mocapkit.io.loaders import kind_of
 
+    check_options(order, penalty, auto, solver, markers, columns)
     path = Path(path)
     output = None if output is None else Path(output)
-    if (penalty is None) == (not auto):
-        raise InvalidParameterError("give exactly one of --penalty K or --auto")
-    if order < 0:
-        raise InvalidParameterError("--order must be >= 0")
     check_outputs(path, (output, "--output"), (None if plot is None else Path(plot), "--plot"))
     suffix = None if output is None else output.suffix.lower()
     if suffix == "" and is_device_or_pipe(output):  # /dev/null, /dev/stdout, a FIFO: written into, as CSV

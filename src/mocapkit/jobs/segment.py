@@ -37,6 +37,24 @@ def segments_of(cuts, n_frames: int, rate_hz: float, ref=None) -> list[dict]:
     return out
 
 
+def check_options(method: str = "arma", train: list[str] | None = None, joint: list[str] | None = None,
+                  downsample: int | None = None) -> None:
+    """The option checks that need no file: a known method, ``--train`` exactly for ``mlp``,
+    ``--downsample`` only for ``arma``, ``A=B`` pairs."""
+    from mocapkit.segment import BASELINES
+
+    if method != "arma" and method not in BASELINES:
+        raise InvalidParameterError(f"--method {method!r}: one of arma, {', '.join(BASELINES)}")
+    if method == "mlp" and not train:
+        raise InvalidParameterError("--method mlp is supervised: give labelled takes with --train MOTION=LABELS")
+    if train and method != "mlp":
+        raise InvalidParameterError("--train is only for --method mlp")
+    if downsample is not None and method != "arma":
+        raise InvalidParameterError("--downsample is an option of --method arma")
+    pairs(joint, "--joint")
+    pairs(train, "--train")
+
+
 def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", labels: Path | None = None,
                 joint: list[str] | None = None, train: list[str] | None = None, rate: float | None = None,
                 downsample: int | None = None, labels_beside: bool = False, output: Path | None = None,
@@ -50,6 +68,7 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
     from mocapkit.io.loaders import load_motion
     from mocapkit.segment.features import LIMB_NAMES, motion_features, pose_features
 
+    check_options(method, train, joint, downsample)
     path = Path(path)
     plot = None if plot is None else Path(plot)
     if labels is None and labels_beside and path.with_name(path.stem + ".labels.txt").is_file():
@@ -71,16 +90,10 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
         ds = downsample if downsample is not None else max(1, int(round(rate_hz / 30.0)))
         seg = ARMASegmenter(downsample=ds)
     else:
-        if downsample is not None:
-            raise InvalidParameterError("--downsample is an option of --method arma")
         from mocapkit.segment import BASELINES
 
-        if method not in BASELINES:
-            raise InvalidParameterError(f"--method {method!r}: one of arma, {', '.join(BASELINES)}")
         kw = {}
-        if method == "mlp":
-            if not train:
-                raise InvalidParameterError("--method mlp is supervised: give labelled takes with --train MOTION=LABELS")
+        if method == "mlp":  # check_options made sure --train is given
             data = []
             for mot, lab in pairs(train, "--train"):
                 tm = load_motion(mot, asf=asf, rate=rate)
@@ -89,8 +102,6 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
                 data.append((motion_features(tm, jmap).limbs,
                              np.asarray(tref.labels, dtype=object)[tref.frame_labels()]))
             kw["train"] = data
-        elif train:
-            raise InvalidParameterError("--train is only for --method mlp")
         from mocapkit.evaluation.segmentation import rate_scaled
 
         kw.update(rate_scaled(method, rate_hz))  # the baselines' 120 Hz frame counts at this rate
