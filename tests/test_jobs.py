@@ -233,3 +233,26 @@ def test_not_read_by_follows_the_options_and_skips_tables_without_orientation(fi
     for name, content in (("garbage.csv", bytes(range(256))), ("empty.csv", b""), ("nohead.csv", b"1,2,3\n4,5,6\n")):
         (tmp_path / name).write_bytes(content)  # not a table with a header: left to the job, an error row
         assert not_read_by("info", tmp_path / name, {}) is None, name
+
+
+def test_a_sensor_folder_is_one_input_as_info_reads_it(tests_data, tmp_path):
+    """x-io's layout (one sub-folder per sensor, Quaternion.csv + Inertial.csv) is one recording in a batch,
+    its sensors named after the sub-folders, and the row equals ``mocapkit info --json FOLDER``."""
+    import shutil
+
+    from mocapkit.batch.engine import run_batch
+    from mocapkit.jobs.inputs import expand_inputs, is_sensor_folder
+
+    db = tmp_path / "db"
+    shutil.copytree(tests_data / "xio", db / "walk" / "xio")
+    shutil.copy(tests_data / "bvh" / "walk-meredith-60.bvh", db / "walk" / "walk.bvh")
+    assert is_sensor_folder(db / "walk" / "xio") and not is_sensor_folder(db / "walk")
+    assert not is_sensor_folder(db / "walk" / "xio" / "pelvis")  # files, no sub-folders
+    found = expand_inputs([db])
+    assert found.files == [db / "walk" / "walk.bvh", db / "walk" / "xio"]
+    res = run_batch("info", [db], {}, tmp_path / "out", jobs=1)
+    rec = json.loads(next(r for r in res.rows if r["input"] == str(db / "walk" / "xio"))["record_json"])
+    assert sorted(rec["signals"]) == ["left-foot", "pelvis"]
+    assert rec == _roundtrip(run_job("info", db / "walk" / "xio", {}))
+    (db / "walk" / "xio" / "pelvis" / "notes.bvh").write_text("x")  # another recording inside: a plain folder
+    assert not is_sensor_folder(db / "walk" / "xio")

@@ -50,10 +50,34 @@ def _companion(name: str) -> str | None:
     return next((why for end, why in COMPANIONS if low.endswith(end)), None)
 
 
+def is_sensor_folder(folder: str | os.PathLike[str]) -> bool:
+    """A folder of sensors in the layout of x-io's exports: only sub-folders (hidden names aside), each
+    holding CSV/TXT files only, exactly one of them with orientation columns (``Quaternion.csv``; the others,
+    e.g. ``Inertial.csv``, are ignored by :func:`mocapkit.io.imucsv.read_sensor_folder`). Such a folder is one
+    recording whose sensors are named after the sub-folders."""
+    from mocapkit.io.imucsv import detect_format
+
+    try:
+        entries = [e for e in os.scandir(folder) if not e.name.startswith(".")]
+        if not entries or not all(e.is_dir(follow_symlinks=False) for e in entries):
+            return False
+        for sub in entries:
+            files = [e for e in os.scandir(sub.path) if not e.name.startswith(".")]
+            if not files or not all(e.is_file() and os.path.splitext(e.name)[1].lower() in (".csv", ".txt")
+                                    for e in files):
+                return False
+            if sum(detect_format(e.path) is not None for e in files) != 1:
+                return False
+    except OSError:
+        return False
+    return True
+
+
 def expand_inputs(args: list[str | os.PathLike[str]], out: str | os.PathLike[str] | None = None) -> Inputs:
     """Expand the command line's INPUT arguments.
 
-    A file is taken as given (a recording, or skipped with its reason), a folder is walked recursively
+    A file is taken as given (a recording, or skipped with its reason), a sensor folder
+    (:func:`is_sensor_folder`) is one input, any other folder is walked recursively
     (symlinked folders inside it are not followed; symlinked files are inputs, a dangling one becomes an
     error row; a folder that cannot be listed is reported as skipped),
     an argument that does not exist but holds ``* ? [`` is expanded by :func:`glob.glob` with
@@ -90,6 +114,10 @@ def expand_inputs(args: list[str | os.PathLike[str]], out: str | os.PathLike[str
 
         for d, dirs, files in os.walk(folder, onerror=unreadable):
             dirs[:] = sorted(x for x in dirs if not x.startswith(".") and not _within(os.path.join(d, x), out_abs))
+            if is_sensor_folder(d):  # one recording of several sensors, as `mocapkit info FOLDER` reads it
+                found[d] = None
+                dirs[:] = []
+                continue
             for f in files:
                 consider(os.path.join(d, f), explicit=False)
 
