@@ -144,7 +144,7 @@ def test_a_killed_worker_costs_no_row(takes, tmp_path):
     assert all(r["status"] == "ok" for r in rows), [r["error"] for r in rows if r["status"] != "ok"]
 
 
-def _children(pid: int) -> set[int]:
+def _group(pid: int) -> set[int]:
     """Every live process of the batch's process group (its forkserver and workers)."""
     out = set()
     for d in Path("/proc").iterdir():
@@ -179,9 +179,9 @@ def test_ctrl_c_twice_stops_at_once_says_how_to_resume_and_resume_finishes(takes
     last = stderr.decode().strip().splitlines()[-1]
     assert last.startswith("interrupted: ") and "--resume" in last and str(out / "journal.jsonl") in last
     deadline = time.monotonic() + 5  # the forkserver and resource tracker end when they see the main gone
-    while _children(proc.pid) and time.monotonic() < deadline:
+    while _group(proc.pid) and time.monotonic() < deadline:
         time.sleep(0.1)
-    left = {p: Path(f"/proc/{p}/cmdline").read_bytes().replace(b"\0", b" ")[:200] for p in _children(proc.pid)}
+    left = {p: Path(f"/proc/{p}/cmdline").read_bytes().replace(b"\0", b" ")[:200] for p in _group(proc.pid)}
     assert not left  # no worker left running
     done = read_journal(out / "journal.jsonl")
     assert 2 <= len(done) < N_TAKES and all(r["status"] == "ok" for r in done)
