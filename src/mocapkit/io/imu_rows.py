@@ -16,8 +16,9 @@ missing-value convention, so an empty, ``nan`` or ``inf`` cell is an error there
 
 A file whose last line has no line end may have been cut short: a different number of fields on
 that line is an error (the message says so). Its last value is judged against the same column on
-the (up to) 20 rows before it (:func:`mocapkit.io.textinput.cut_cell`; with fewer than two rows
-before it, rule (a) alone):
+the (up to) 20 rows before it (:func:`mocapkit.io.textinput.cut_cell`; with one row before it,
+rule (a) alone decides and (b) or (c) only give a warning: one row cannot tell a fixed-decimal column
+from a varying one):
 
 (a) it ends with ``.``, ``e``, ``E``, ``+`` or ``-`` (``0.`` for ``0.4``): an error;
 (b) it has fewer decimals (or exponent digits) than that column on every one of those rows, all
@@ -612,10 +613,13 @@ class RowReader:
         if found is None:
             return
         j, verdict = found
-        if len(prev_rows) < 2 and not (verdict == "cut" and fields[j].strip().endswith(CUT_ENDINGS)):
-            return  # fewer than two rows before it say little about a column's format: rule (a) only
         name = self.lay.names[j] if j < len(self.lay.names) else f"column {j + 1}"
         cell = fields[j].strip()
+        if len(prev_rows) < 2 and not (verdict == "cut" and cell.endswith(CUT_ENDINGS)):
+            # one row before it cannot tell a fixed-decimal column from a varying one: a doubt, said
+            self._warn(f"line {ln}: column {name}: {_short(cell)} is shorter than on the one row before it and "
+                       "the file ends there without a line end: it may be cut short")
+            return
         if verdict == "short":
             self._warn(f"line {ln}: column {name}: {short_value_note(cell)}")
             return
