@@ -11,14 +11,13 @@ from mocapkit.errors import InvalidParameterError
 from mocapkit.jobs.common import Progress, check_outputs, no_progress, output_entry, recording
 
 
-def _inputs(path: Path, markers: str | None, columns: str | None):
-    """``([(name, times, values (N, D), component names)], loaded object)`` to filter."""
-    from mocapkit.io.loaders import kind_of
-
+def _inputs(path: Path, kind: str, markers: str | None, columns: str | None):
+    """``([(name, times, values (N, D), component names)], loaded object)`` to filter; ``kind`` is
+    :func:`mocapkit.io.loaders.kind_of` of ``path``."""
     out = []
     if markers is not None and columns is not None:
         raise InvalidParameterError("give --markers or --columns, not both")
-    is_markers = kind_of(path) == "markers"
+    is_markers = kind == "markers"
     if is_markers and columns is not None and path.suffix.lower() == ".csv":
         from mocapkit.io.vicon_csv import is_vicon_csv
 
@@ -47,7 +46,7 @@ def _inputs(path: Path, markers: str | None, columns: str | None):
         return out, mk
     if markers is not None:
         raise InvalidParameterError(f"{path}: --markers needs a C3D, Qualisys TSV or marker CSV file")
-    if kind_of(path) not in ("imu", "table") or path.suffix.lower() not in (".csv", ".txt"):
+    if kind not in ("imu", "table") or path.suffix.lower() not in (".csv", ".txt"):
         raise InvalidParameterError(f"{path}: filter reads marker files (C3D, TSV, TRC, marker CSV) or a CSV "
                                     "with a time column; for skeletal motion, convert it or segment it")
     # a plain CSV with a header: a time column (first) and named columns (strict, bounded: io/timetable.py)
@@ -110,9 +109,10 @@ def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto
     if suffix not in (None, ".csv", ".c3d", ".trc"):
         raise InvalidParameterError(f"{output}: filter writes .csv, or .c3d/.trc for a marker file")
     marker_out = suffix in (".c3d", ".trc")
-    if marker_out and (kind_of(path) != "markers" or columns is not None):
+    kind = kind_of(path)  # sniffs a CSV's first lines: once
+    if marker_out and (kind != "markers" or columns is not None):
         raise InvalidParameterError(f"{output}: a .c3d/.trc output needs a marker file as input")
-    signals, loaded = _inputs(path, markers, columns)
+    signals, loaded = _inputs(path, kind, markers, columns)
     if marker_out and any(comps != [f"{c[:-2]}_x", f"{c[:-2]}_y", f"{c[:-2]}_z"] for (_, _, _, comps) in signals
                           for c in comps[:1]):
         raise InvalidParameterError(f"{output}: a .c3d/.trc output needs whole markers (x, y, z), not components")
@@ -136,7 +136,7 @@ def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto
     def filtered(t, Y, r) -> np.ndarray:
         return np.full(Y.shape, np.nan) if r is None else np.asarray(r.evaluate(t)).reshape(Y.shape)
 
-    is_marker_file = kind_of(path) == "markers" and columns is None
+    is_marker_file = kind == "markers" and columns is None
     if marker_out:
         # the input's markers with the filtered ones replaced; labels, rate, units, gaps and analog kept
         from mocapkit.io.loaders import write_markers
