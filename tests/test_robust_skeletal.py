@@ -303,9 +303,11 @@ def test_bvh_mutations_give_an_error_or_finite_checked_values(mutations, cut_at,
     assert 1e-6 <= m.frame_time <= 1e6
     # the values are those of the text, token by token, by the strict grammar
     data = text.split("\n")[FIRST_DATA - 1:]
-    rows = [[parse_number(x, "x", 0, "v") for t in ln.split() for x in bvh_mod.NUMBER_RE.findall(t)]
-            for ln in data if ln.strip()]  # glued numbers ("0.0-7.5") are split as the reader does
-    rows = [r for r in rows if len(r) == m.channel_values.shape[1]][: m.n_frames]
+    tokens = [[x for t in ln.split() for x in bvh_mod.NUMBER_RE.findall(t)]
+              for ln in data if ln.strip()]  # glued numbers ("0.0-7.5") are split as the reader does
+    # a short (cut) last line is dropped by the reader, so only full rows are parsed here
+    rows = [[parse_number(x, "x", 0, "v") for x in r] for r in tokens
+            if len(r) == m.channel_values.shape[1]][: m.n_frames]
     assert np.array_equal(m.channel_values, np.array(rows).reshape(m.channel_values.shape))
 
 
