@@ -1,0 +1,212 @@
+"""Read a ``.mkc`` clip: the whole motion, or one instant (random access by block).
+
+:class:`Clip` checks the container (:mod:`mocapkit.io.mkc`) and the header's fields, then decodes
+blocks on demand: :meth:`Clip.decode` decodes every block (and checks the file's final checksum);
+:meth:`Clip.pose_at` decodes only the block(s) holding the instant asked for — the cost a game runtime
+pays per pose — and keeps the last few decoded blocks, so playback reads each block once.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from pathlib import Path
+
+import numpy as np
+
+from mocapkit.clip.codec import entropy_decode, steps_table, unpack_block
+from mocapkit.clip.rotvec import exp_map
+from mocapkit.errors import InvalidSignalError, MocapFormatError
+from mocapkit.io.mkc import ClipFile
+from mocapkit.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
+
+CACHE_BLOCKS = 4
+_CHANNELS = set(POSITION_CHANNELS + ROTATION_CHANNELS)
+
+
+class Clip:
+    """A decoded clip header with lazy blocks. ``Clip(path)`` or ``Clip(path, data=bytes)``."""
+
+    def __init__(self, path: str | Path, *, data: bytes | None = None) -> None:
+        self.file = ClipFile(path, data=data)
+        self.path = self.file.path
+        h = self.file.header
+        self.header = h
+        self.n_frames = self._int(h.get("frames"), "frames", 1)
+        if sum(b.frames for b in self.file.blocks) != self.n_frames:
+            raise self._bad("the blocks do not cover the clip's frames")
+        self.skeleton = self._skeleton(h.get("skeleton"))
+        self.times = self._times(h)
+        self.unit_cm = self._opt_float(h.get("unit_cm"), "unit_cm")
+        self._tracks(h.get("tracks"))
+        self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
+        self._starts = np.array([b.first for b in self.file.blocks], dtype=np.int64)
+
+    # ---------------------------------------------------------------- header checks
+    def _bad(self, problem: str) -> MocapFormatError:
+        return MocapFormatError(self.path, None, problem)
+
+    def _int(self, v, what: str, lo: int = 0, hi: int | None = None) -> int:
+        if type(v) is not int or v < lo or (hi is not None and v > hi):
+            raise self._bad(f"header field {what}: expected an integer in [{lo}, {hi if hi is not None else '∞'}], got {v!r}")
+        return v
+
+    def _float(self, v, what: str) -> float:
+        if type(v) not in (int, float) or not math.isfinite(v) or abs(v) > 1e12:
+            raise self._bad(f"header field {what}: expected a finite number, got {v!r}")
+        return float(v)
+
+    def _opt_float(self, v, what: str) -> float | None:
+        return None if v is None else self._float(v, what)
+
+    def _floats(self, v, n: int, what: str) -> list[float]:
+        if not isinstance(v, list) or len(v) != n:
+            raise self._bad(f"header field {what}: expected {n} numbers, got {v!r}")
+        return [self._float(x, what) for x in v]
+
+    def _skeleton(self, s) -> Skeleton:
+        if not isinstance(s, dict):
+            raise self._bad("header has no skeleton")
+        names, parents, offsets, channels = (s.get(k) for k in ("names", "parents", "offsets", "channels"))
+        if not isinstance(names, list) or not names or not all(isinstance(x, str) for x in names):
+            raise self._bad("skeleton names must be a non-empty list of strings")
+        J = len(names)
+        for what, v in (("parents", parents), ("offsets", offsets), ("channels", channels)):
+            if not isinstance(v, list) or len(v) != J:
+                raise self._bad(f"skeleton {what} must list {J} joints")
+        par = [self._int(p, "parents", -1, J - 1) for p in parents]
+        off = [self._floats(o, 3, f"offsets of {names[j]!r}") for j, o in enumerate(offsets)]
+        ch = []
+        for j, c in enumerate(channels):
+            if not isinstance(c, list) or not all(isinstance(x, str) and x in _CHANNELS for x in c) or len(set(c)) != len(c):
+                raise self._bad(f"skeleton channels of {names[j]!r} are not BVH channel names: {c!r}")
+            ch.append(tuple(c))
+        ends = []
+        for e in s.get("end_sites", []) if isinstance(s.get("end_sites", []), list) else [None]:
+            if not (isinstance(e, list) and len(e) == 2):
+                raise self._bad(f"skeleton end site {e!r} is not [joint, [x, y, z]]")
+            ends.append((self._int(e[0], "end site joint", 0, J - 1), tuple(self._floats(e[1], 3, "end site offset"))))
+        meta = {}
+        if self.header.get("unit_cm") is not None:
+            meta["length_unit_cm"] = self._float(self.header["unit_cm"], "unit_cm")
+        try:
+            return Skeleton(tuple(names), np.array(par, dtype=np.int64), np.array(off, dtype=np.float64).reshape(J, 3),
+                            tuple(ch), tuple(ends), meta=meta)
+        except InvalidSignalError as e:
+            raise self._bad(f"skeleton: {e}") from None
+
+    def _times(self, h) -> np.ndarray:
+        if h.get("times") is not None:
+            t = np.array(self._floats(h["times"], self.n_frames, "times"))
+            if self.n_frames > 1 and np.any(np.diff(t) <= 0):
+                raise self._bad("times are not strictly increasing")
+            self.frame_time = float((t[-1] - t[0]) / max(self.n_frames - 1, 1)) or 1.0
+            return t
+        t0 = self._float(h.get("start_time"), "start_time")
+        dt = self._float(h.get("frame_time"), "frame_time")
+        if not dt > 0:
+            raise self._bad(f"frame_time must be positive, got {dt!r}")
+        self.frame_time = dt
+        return t0 + np.arange(self.n_frames) * dt
+
+    def _tracks(self, tracks) -> None:
+        J = self.skeleton.n_joints
+        if not isinstance(tracks, list):
+            raise self._bad("header has no track table")
+        self.rest_rotations = np.tile([1.0, 0.0, 0.0, 0.0], (J, 1))
+        self.rest_translations = self.skeleton.offsets.copy()
+        self.animated: list[tuple[int, str]] = []  # (joint, kind) in payload order
+        bases = []
+        seen = set()
+        for i, t in enumerate(tracks):
+            if not isinstance(t, dict):
+                raise self._bad(f"track {i} is not an object")
+            j = self._int(t.get("joint"), f"tracks[{i}].joint", 0, J - 1)
+            kind, cls = t.get("kind"), t.get("class")
+            if kind not in ("rotation", "translation") or cls not in ("constant", "animated") or (j, kind) in seen:
+                raise self._bad(f"track {i}: kind {kind!r} / class {cls!r} of joint {j} is not valid or repeated")
+            seen.add((j, kind))
+            if cls == "constant":
+                if kind == "rotation":
+                    q = np.array(self._floats(t.get("value"), 4, f"tracks[{i}].value"))
+                    if not np.linalg.norm(q) > 0:
+                        raise self._bad(f"track {i}: a zero quaternion")
+                    self.rest_rotations[j] = q
+                else:
+                    self.rest_translations[j] = self._floats(t.get("value"), 3, f"tracks[{i}].value")
+            else:
+                b = self._float(t.get("base_step"), f"tracks[{i}].base_step")
+                if not b > 0:
+                    raise self._bad(f"track {i}: base_step must be positive")
+                self.animated.append((j, kind))
+                bases.append(b)
+        self.dims = np.full(len(self.animated), 3, dtype=np.int64)
+        self.steps = steps_table(np.array(bases))
+
+    # ---------------------------------------------------------------- decoding
+    def block_values(self, i: int) -> np.ndarray:
+        """``(n, 3·T)`` decoded values (rotation vectors, translations) of the animated tracks in block ``i``."""
+        if i in self._cache:
+            self._cache.move_to_end(i)
+            return self._cache[i]
+        e = self.file.blocks[i]
+        where = f"{self.path} (block {i})"
+        raw = entropy_decode(self.file.block(i), e.raw, where)
+        v = unpack_block(raw, e.frames, self.dims, self.steps, where)
+        self._cache[i] = v
+        if len(self._cache) > CACHE_BLOCKS:
+            self._cache.popitem(last=False)
+        return v
+
+    def _fill(self, vals: np.ndarray, rot: np.ndarray, trans: np.ndarray) -> None:
+        for c, (j, kind) in enumerate(self.animated):
+            if kind == "rotation":
+                rot[:, j] = exp_map(vals[:, 3 * c:3 * c + 3])
+            else:
+                trans[:, j] = vals[:, 3 * c:3 * c + 3]
+
+    def decode(self) -> Motion:
+        """The whole motion at its frame times (every block decoded, the final checksum checked)."""
+        self.file.check_all()
+        N, J = self.n_frames, self.skeleton.n_joints
+        rot = np.empty((N, J, 4))
+        rot[:] = self.rest_rotations
+        trans = np.empty((N, J, 3))
+        trans[:] = self.rest_translations
+        for i, e in enumerate(self.file.blocks):
+            self._fill(self.block_values(i), rot[e.first:e.first + e.frames], trans[e.first:e.first + e.frames])
+        meta = {"frame_time": self.frame_time, "format": "mkc"}
+        return Motion(self.skeleton, self.times, rot, trans, channel_values=None, source=self.path, meta=meta)
+
+    def pose_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Local rotations ``(J, 4)`` and translations ``(J, 3)`` at time ``t`` (seconds; clamped to the
+        clip): linear in rotation vectors / translations between the two frames around ``t``, which
+        are decoded from their block(s) only."""
+        f = float(np.interp(t, self.times, np.arange(self.n_frames, dtype=np.float64)))
+        a = int(math.floor(f))
+        b = min(a + 1, self.n_frames - 1)
+        w = f - a
+        va = self._frame_values(a)
+        vals = va if (w == 0.0 or b == a) else va + (self._frame_values(b) - va) * w
+        rot = self.rest_rotations.copy()
+        trans = self.rest_translations.copy()
+        self._fill(vals[None], rot[None], trans[None])
+        return rot, trans
+
+    def _frame_values(self, frame: int) -> np.ndarray:
+        i = int(np.searchsorted(self._starts, frame, side="right") - 1)
+        return self.block_values(i)[frame - self.file.blocks[i].first]
+
+    def info(self) -> dict:
+        """What the clip holds (header fields, counts, sizes); no block is decoded."""
+        h = self.header
+        classes = {"rotation": {"default": 0, "constant": 0, "animated": 0}, "translation": {"default": 0, "constant": 0, "animated": 0}}
+        listed = {(t["joint"], t["kind"]): t["class"] for t in h["tracks"]}
+        for j in range(self.skeleton.n_joints):
+            for kind in ("rotation", "translation"):
+                classes[kind][listed.get((j, kind), "default")] += 1
+        return {"format": "mkc", "version": 1, "file": self.path, "bytes": self.file.size, "frames": self.n_frames,
+                "joints": self.skeleton.n_joints, "frame_time": self.frame_time,
+                "duration_s": float(self.times[-1] - self.times[0]), "unit_cm": self.unit_cm,
+                "blocks": len(self.file.blocks), "tracks": classes, "bound": h.get("bound"),
+                "keyframes": h.get("keyframes"), "source": h.get("source")}
