@@ -5,8 +5,8 @@ shell metric), keyframes on quantisation grids, entropy-coded blocks with random
 :func:`position_errors` measures both metrics.
 """
 
-from mocapkit.clip.decoder import Clip
 from mocapkit.clip.encoder import DEFAULT_BLOCK_FRAMES, EncodedClip, encode_clip
 from mocapkit.clip.metric import DEFAULT_SHELL_CM, METRICS, position_errors
+from mocapkit.io.mkc_reader import Clip, read_mkc
 
-__all__ = ["DEFAULT_BLOCK_FRAMES", "DEFAULT_SHELL_CM", "METRICS", "Clip", "EncodedClip", "encode_clip", "position_errors"]
+__all__ = ["DEFAULT_BLOCK_FRAMES", "DEFAULT_SHELL_CM", "METRICS", "Clip", "EncodedClip", "encode_clip", "position_errors", "read_mkc"]

@@ -2,7 +2,7 @@
 
 A track's decoded values stay within ``τ`` per component of the original (the corridor of
 :mod:`mocapkit.clip.keys`), so a rotation track turns its joint by at most ``√3·τ`` radians
-(:mod:`mocapkit.clip.rotvec`) and a translation track moves it by at most ``√3·τ``. A rotation error
+(:mod:`mocapkit.rotvec`) and a translation track moves it by at most ``√3·τ``. A rotation error
 ``δ`` at joint ``i`` moves a point ``p`` hanging below it by at most ``2·sin(δ/2)·|p − p_i| ≤ δ·|p − p_i|``
 and errors along a chain add up (rotations keep distances), so the error of a point ``k`` is at most
 ``Σ_i √3·τ_i·w_ik`` over the tracks ``i`` that move it, with ``w_ik = max_t |p_k − p_i|`` for a

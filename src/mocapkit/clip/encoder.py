@@ -2,7 +2,7 @@
 
 1. **Tracks** (one per joint and kind): *default* (the identity rotation / the joint's offset in every
    frame: nothing stored), *constant* (one value, stored exactly; also a track whose values fit in its
-   tolerance corridor), *animated* (rotation vectors, :mod:`~mocapkit.clip.rotvec`, or translations).
+   tolerance corridor), *animated* (rotation vectors, :mod:`~mocapkit.rotvec`, or translations).
 2. **Budget** (:mod:`~mocapkit.clip.budget`): every track's tolerance ``τ`` from the hierarchy, such
    that the worst case (all errors aligned) keeps every joint or shell point within the bound.
 3. **Blocks** of ``block_frames`` frames, each coded on its own (random access). In every block every
@@ -13,8 +13,8 @@
    kinematics gives every point's error in every frame; in a block where a point exceeds the bound,
    only the tracks that move that point are re-encoded, √2 tighter, and only that block is checked
    again. At ``S0·2^(−r/2) ≤ 1`` a track is within its worst-case budget, so the repair ends.
-5. **Entropy stage** per block (:mod:`~mocapkit.clip.codec`), container (:mod:`mocapkit.io.mkc`), and a
-   final check of the written bytes by the reader (:class:`~mocapkit.clip.decoder.Clip`) alone.
+5. **Entropy stage** per block (:mod:`~mocapkit.io.mkc_codec`), container (:mod:`mocapkit.io.mkc`), and a
+   final check of the written bytes by the reader (:class:`~mocapkit.io.mkc_reader.Clip`) alone.
 """
 
 from __future__ import annotations
@@ -22,20 +22,21 @@ from __future__ import annotations
 import math
 import os
 import time
-from concurrent.futures import ThreadPoolExecutor
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from mocapkit import __version__
 from mocapkit.clip.budget import track_tolerances
-from mocapkit.clip.codec import entropy_encode, level_step, pack_block, residual_cost, steps_table, unpack_block
 from mocapkit.clip.keys import corridor_keys
 from mocapkit.clip.metric import check_metric, errors_from_fk, worst_errors
-from mocapkit.clip.rotvec import exp_map, log_map
 from mocapkit.errors import BoundViolationError, InvalidParameterError
 from mocapkit.io.mkc import mkc_bytes
+from mocapkit.io.mkc_codec import entropy_encode, level_step, pack_block, residual_cost, steps_table, unpack_block
+from mocapkit.io.mkc_reader import Clip
+from mocapkit.rotvec import exp_map, log_map
 from mocapkit.skeleton import Motion, forward_kinematics
 
 DEFAULT_BLOCK_FRAMES = 512
@@ -223,8 +224,6 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     t_enc = time.perf_counter() - t_start
 
     # the guarantee: decode the bytes alone, as any reader does, and measure
-    from mocapkit.clip.decoder import Clip
-
     dec = Clip("<encoded clip>", data=data).decode()
     P1, R1 = forward_kinematics(dec)
     je, se = errors_from_fk(P0, R0, P1, R1, shell_distance)

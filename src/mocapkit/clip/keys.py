@@ -96,21 +96,3 @@ def corridor_keys(x: np.ndarray, tol: float, step: float) -> tuple[np.ndarray, n
     if np.abs(x).max() / step >= 2.0**50:
         raise InvalidParameterError(f"step {step:g} is too fine for values up to {np.abs(x).max():g}")
     return _corridor(x, float(tol), float(step))
-
-
-@numba.njit(cache=True)
-def interpolate_keys(idx, q, step, n, out, col):
-    """``out[:n, col:col+D]`` = the piecewise-linear decode of keys ``(idx, q·step)`` at frames 0..n−1
-    (the decoder's formula; the encoder checks with the same one)."""
-    K, D = q.shape
-    for s in range(K - 1):
-        a = idx[s]
-        b = idx[s + 1]
-        for c in range(D):
-            ya = q[s, c] * step
-            yb = q[s + 1, c] * step
-            out[a, col + c] = ya
-            for t in range(a + 1, b):
-                out[t, col + c] = ya + (yb - ya) * ((t - a) / (b - a))
-    for c in range(D):
-        out[idx[K - 1], col + c] = q[K - 1, c] * step

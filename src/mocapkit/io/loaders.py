@@ -9,7 +9,7 @@ from pathlib import Path
 from mocapkit.errors import MocapFormatError
 from mocapkit.skeleton import Motion
 
-SKELETAL_SUFFIXES = (".bvh", ".amc", ".mvnx")
+SKELETAL_SUFFIXES = (".bvh", ".amc", ".mvnx", ".mkc")
 MARKER_SUFFIXES = (".c3d", ".tsv", ".trc")
 #: OpenSim tables: ``"imu"`` for an OpenSense orientation STO, else ``"table"`` (joint angles...).
 TABLE_SUFFIXES = (".mot", ".sto")
@@ -68,6 +68,12 @@ def load_motion(path: str | Path, asf: str | Path | None = None, rate: float | N
         if rate is not None or asf is not None:
             raise MocapFormatError(str(p), None, "an MVNX file has its own frameRate and skeleton; do not give --rate or --asf")
         return read_mvnx(p)
+    if s == ".mkc":
+        from mocapkit.io.mkc_reader import read_mkc
+
+        if rate is not None or asf is not None:
+            raise MocapFormatError(str(p), None, "a mocapkit clip has its own frame times and skeleton; do not give --rate or --asf")
+        return read_mkc(p)
     raise MocapFormatError(str(p), None, f"not a skeletal motion file (expected {', '.join(SKELETAL_SUFFIXES)})")
 
 

@@ -16,6 +16,7 @@ def info_job(path: Path, *, asf: Path | None = None, rate: float | None = None, 
     sensor folder). ``output`` is unused (the record is the result); the record's fields are those of
     ``mocapkit info --json``."""
     from mocapkit.io.loaders import kind_of, load_motion
+    from mocapkit.jobs.clip import clip_fields
 
     path = Path(path)
     kind = kind_of(path)
@@ -32,6 +33,8 @@ def info_job(path: Path, *, asf: Path | None = None, rate: float | None = None, 
                 "joint_channels": {sk.names[j]: list(sk.channels[j]) for j in range(sk.n_joints)},
                 "warnings": list(m.meta.get("warnings", [])),
             }
+            if path.suffix.lower() == ".mkc":
+                rec.update(clip_fields(path))
             obj = m
         elif kind == "markers":
             from mocapkit.io.loaders import load_markers

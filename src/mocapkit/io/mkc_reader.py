@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from mocapkit.clip.codec import entropy_decode, steps_table, unpack_block
-from mocapkit.clip.rotvec import exp_map
 from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.mkc import ClipFile
+from mocapkit.io.mkc_codec import entropy_decode, steps_table, unpack_block
+from mocapkit.rotvec import exp_map
 from mocapkit.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
 CACHE_BLOCKS = 4
@@ -210,3 +210,8 @@ class Clip:
                 "duration_s": float(self.times[-1] - self.times[0]), "unit_cm": self.unit_cm,
                 "blocks": len(self.file.blocks), "tracks": classes, "bound": h.get("bound"),
                 "keyframes": h.get("keyframes"), "source": h.get("source")}
+
+
+def read_mkc(path: str | Path) -> Motion:
+    """The decoded motion of a ``.mkc`` clip (every checksum checked)."""
+    return Clip(path).decode()
