@@ -34,7 +34,7 @@ from mocapkit.clip.keys import corridor_keys
 from mocapkit.clip.metric import check_metric, errors_from_fk, worst_errors
 from mocapkit.errors import BoundViolationError, InvalidParameterError
 from mocapkit.io.mkc import mkc_bytes
-from mocapkit.io.mkc_codec import entropy_encode, level_step, pack_block, residual_cost, steps_table, unpack_block
+from mocapkit.io.mkc_codec import ENTROPY, entropy_encode, level_step, pack_block, residual_cost, steps_table, unpack_block
 from mocapkit.io.mkc_reader import Clip
 from mocapkit.rotvec import exp_map, log_map
 from mocapkit.skeleton import Motion, forward_kinematics
@@ -99,12 +99,13 @@ def _choose(x: np.ndarray, base: float, r: int) -> tuple[int, int, np.ndarray, n
 
 def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_distance: float = 1.0,
                 unit_cm: float | None = None, block_frames: int = DEFAULT_BLOCK_FRAMES, source: str = "",
-                progress: Callable[[int, int], None] | None = None) -> EncodedClip:
+                entropy: str = "zstd", progress: Callable[[int, int], None] | None = None) -> EncodedClip:
     """Encode ``motion`` so that no joint (``metric="joint"``) or shell point (``"shell"``, at
     ``shell_distance`` along each joint's local axes) moves by more than ``bound`` in any frame.
 
     ``bound`` and ``shell_distance`` are in the motion's length unit; ``unit_cm`` (cm per unit) is
-    recorded in the file. Raises :class:`~mocapkit.errors.BoundViolationError` rather than return a
+    recorded in the file. ``entropy``: ``"zstd"`` (fast to decode), ``"lzma"`` (a few % smaller) or
+    ``"smallest"`` per block. Raises :class:`~mocapkit.errors.BoundViolationError` rather than return a
     file that the reader would decode beyond the bound.
     """
     t_start = time.perf_counter()
@@ -113,6 +114,8 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
         raise InvalidParameterError(f"max position error must be a positive number, got {bound!r}")
     if not (math.isfinite(shell_distance) and shell_distance > 0):
         raise InvalidParameterError(f"shell distance must be a positive number, got {shell_distance!r}")
+    if entropy not in ENTROPY:
+        raise InvalidParameterError(f"entropy stage must be one of {', '.join(ENTROPY)}, got {entropy!r}")
     if not (isinstance(block_frames, int) and block_frames >= 2):
         raise InvalidParameterError(f"block length must be an integer >= 2 frames, got {block_frames!r}")
     sk, N = motion.skeleton, motion.n_frames
@@ -215,7 +218,7 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
 
     payloads = [pack_block(e - a, [keys[b][c] for c in range(T)]) for b, (a, e) in enumerate(spans)]
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:  # zstd and LZMA release the GIL
-        coded = list(pool.map(entropy_encode, payloads))
+        coded = list(pool.map(lambda p: entropy_encode(p, entropy), payloads))
     blocks = [(a, e - a, len(p), c) for (a, e), p, c in zip(spans, payloads, coded)]
     n_keys = sum(len(keys[b][c][2]) for b in range(B) for c in range(T))
     header = _header(motion, tracks, anim, unit_cm, source, n_keys)

@@ -13,8 +13,8 @@ zigzag-mapped), for the ``T`` animated tracks of the clip in track-table order:
    extrapolation in time ``q_{i−1} + ⌊(q_{i−1} − q_{i−2})·(f_i − f_{i−1})/(f_{i−1} − f_{i−2}) + ½⌋``
    (order 2).
 
-The entropy stage is chosen per block, the smallest of: stored (0), a zstd frame (1, level 9), a raw
-LZMA2 stream (2, preset 6: 8 MiB dictionary, lc 3, lp 0, pb 2).
+The entropy stage, per block: stored (0), a zstd frame (1) or a raw LZMA2 stream (2, preset 6: 8 MiB
+dictionary, lc 3, lp 0, pb 2) — zstd by default (fast to decode), LZMA2 or the smallest on request.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ CODEC_STORED, CODEC_ZSTD, CODEC_LZMA = 0, 1, 2
 _LZMA_FILTERS = [{"id": lzma.FILTER_LZMA2, "preset": 6}]  # fixed: raw LZMA2 streams carry no filter properties
 MAX_LEVEL = 120  # steps down to 2^-60 of the base step
 SQRT_HALF = 0.7071067811865476
+LIMIT = 2**52  # grid integers and residuals beyond are refused (exact in float64)
 
 
 def level_step(base: float, level: int) -> float:
@@ -40,7 +41,7 @@ def level_step(base: float, level: int) -> float:
     return s * SQRT_HALF if level & 1 else s
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _put(buf, pos, v):
     while v >= 128:
         buf[pos] = (v & 127) | 128
@@ -50,12 +51,12 @@ def _put(buf, pos, v):
     return pos + 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _zig(v):
     return 2 * v if v >= 0 else -2 * v - 1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _pred(q, f, i, c, order):
     if i == 0:
         return 0
@@ -108,7 +109,7 @@ def _pack(n, codes, Ks, f_flat, q_flat, dims):
     return buf[:pos].copy()
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _get(buf, pos):
     v = 0
     shift = 0
@@ -123,7 +124,7 @@ def _get(buf, pos):
         shift += 7
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _unpack(buf, n, dims, steps_table, out):
     """Decode a payload into ``out`` (n, ΣD); returns 0, or an error code (1 truncated/malformed,
     2 bad count, 3 bad key position, 4 bad level, 5 trailing bytes, 6 value out of range)."""
@@ -144,10 +145,13 @@ def _unpack(buf, n, dims, steps_table, out):
         Ks[t] = v
         if (codes[t] >> 1) >= steps_table.shape[1]:
             return 4
-    fs = []
+    fo = np.zeros(T + 1, np.int64)
+    for t in range(T):
+        fo[t + 1] = fo[t] + Ks[t]
+    fs = np.empty(fo[T], np.int64)
     for t in range(T):
         K = Ks[t]
-        f = np.empty(K, np.int64)
+        f = fs[fo[t]:fo[t + 1]]
         f[0] = 0
         for i in range(1, K - 1):
             v, pos = _get(buf, pos)
@@ -158,34 +162,49 @@ def _unpack(buf, n, dims, steps_table, out):
                 return 3
         if K > 1:
             f[K - 1] = n - 1
-        fs.append(f)
     col = 0
+    ya = np.empty(8)
+    dy = np.empty(8)
     for t in range(T):
         K, D = Ks[t], dims[t]
-        f = fs[t]
+        f = fs[fo[t]:fo[t + 1]]
         order = (codes[t] & 1) + 1
         step = steps_table[t, codes[t] >> 1]
         q = np.empty((K, D), np.int64)
+        ratio = np.empty(K)  # the extrapolation factor of _pred, once per key
+        for i in range(2, K):
+            ratio[i] = (f[i] - f[i - 1]) / (f[i - 1] - f[i - 2])
         for c in range(D):
             for i in range(K):
                 v, pos = _get(buf, pos)
                 if v < 0:
                     return 1
                 r = (v >> 1) if (v & 1) == 0 else -((v + 1) >> 1)
-                p = _pred(q, f, i, c, order)
-                if abs(p) > 2**52 or abs(r) > 2**52:
+                if i == 0:
+                    p = 0
+                elif i == 1 or order == 1:
+                    p = q[i - 1, c]
+                elif ratio[i] == 1.0:  # equal gaps: _pred's value, in integers (|d| < 2^53 is exact)
+                    p = 2 * q[i - 1, c] - q[i - 2, c]
+                else:  # = _pred: the same operations
+                    p = q[i - 1, c] + math.floor((q[i - 1, c] - q[i - 2, c]) * ratio[i] + 0.5)
+                    if abs(p) > LIMIT:
+                        return 6
+                if abs(r) > LIMIT:
                     return 6
                 q[i, c] = p + r
-                if abs(q[i, c]) > 2**52:
+                if abs(q[i, c]) > LIMIT:
                     return 6
-        for s in range(K - 1):
+        for s in range(K - 1):  # y = y_a + (y_b − y_a)·(t − a)/(b − a), frame by frame
             a, b = f[s], f[s + 1]
             for c in range(D):
-                ya = q[s, c] * step
-                yb = q[s + 1, c] * step
-                out[a, col + c] = ya
-                for tt in range(a + 1, b):
-                    out[tt, col + c] = ya + (yb - ya) * ((tt - a) / (b - a))
+                ya[c] = q[s, c] * step
+                dy[c] = q[s + 1, c] * step - ya[c]
+                out[a, col + c] = ya[c]
+            for tt in range(a + 1, b):
+                w = (tt - a) / (b - a)
+                for c in range(D):
+                    out[tt, col + c] = ya[c] + dy[c] * w
         for c in range(D):
             out[f[K - 1], col + c] = q[K - 1, c] * step
         col += D
@@ -210,8 +229,12 @@ def pack_block(n: int, tracks: list[tuple[int, int, np.ndarray, np.ndarray]]) ->
 
 
 def steps_table(base_steps: np.ndarray) -> np.ndarray:
-    """``(T, MAX_LEVEL + 1)`` every track's step at every level (:func:`level_step`)."""
-    return np.array([[level_step(float(b), lv) for lv in range(MAX_LEVEL + 1)] for b in base_steps]).reshape(-1, MAX_LEVEL + 1)
+    """``(T, MAX_LEVEL + 1)`` every track's step at every level, the same operations as
+    :func:`level_step` (``ldexp`` then one multiplication), vectorised."""
+    lv = np.arange(MAX_LEVEL + 1)
+    b = np.asarray(base_steps, dtype=np.float64).reshape(-1, 1)
+    s = np.ldexp(b, -(lv >> 1))
+    return np.where(lv & 1, s * SQRT_HALF, s)
 
 
 def unpack_block(payload: bytes, n: int, dims: np.ndarray, table: np.ndarray, where: str) -> np.ndarray:
@@ -223,17 +246,24 @@ def unpack_block(payload: bytes, n: int, dims: np.ndarray, table: np.ndarray, wh
     return out
 
 
-def entropy_encode(payload: bytes) -> bytes:
-    """The smallest of stored / zstd / LZMA2, prefixed by its codec byte."""
+ENTROPY = ("zstd", "lzma", "smallest")
+ZSTD_LEVEL = 19
+
+
+def entropy_encode(payload: bytes, entropy: str = "zstd") -> bytes:
+    """The payload through zstd (fast to decode), LZMA2 (a few % smaller, ~10× slower to decode) or
+    the ``"smallest"`` of those and stored, prefixed by its codec byte. Stored when that is smaller."""
     import zstandard
 
     best = bytes([CODEC_STORED]) + payload
-    z = bytes([CODEC_ZSTD]) + zstandard.ZstdCompressor(level=9).compress(payload)
-    if len(z) < len(best):
-        best = z
-    x = bytes([CODEC_LZMA]) + lzma.compress(payload, format=lzma.FORMAT_RAW, filters=_LZMA_FILTERS)
-    if len(x) < len(best):
-        best = x
+    if entropy in ("zstd", "smallest"):
+        z = bytes([CODEC_ZSTD]) + zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(payload)
+        if len(z) < len(best):
+            best = z
+    if entropy in ("lzma", "smallest"):
+        x = bytes([CODEC_LZMA]) + lzma.compress(payload, format=lzma.FORMAT_RAW, filters=_LZMA_FILTERS)
+        if len(x) < len(best):
+            best = x
     return best
 
 

@@ -9,18 +9,22 @@ pays per pose — and keeps the last few decoded blocks, so playback reads each 
 from __future__ import annotations
 
 import math
+import os
 from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.mkc import ClipFile
 from mocapkit.io.mkc_codec import entropy_decode, steps_table, unpack_block
-from mocapkit.rotvec import exp_map
+from mocapkit.rotvec import exp_into
 from mocapkit.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
 CACHE_BLOCKS = 4
+THREADS = os.cpu_count() or 1  # blocks decoded at once by decode_arrays
 _CHANNELS = set(POSITION_CHANNELS + ROTATION_CHANNELS)
 
 
@@ -141,40 +145,59 @@ class Clip:
                 self.animated.append((j, kind))
                 bases.append(b)
         self.dims = np.full(len(self.animated), 3, dtype=np.int64)
+        self._joints = np.array([j for j, _ in self.animated], dtype=np.int64)
+        self._is_rot = np.array([k == "rotation" for _, k in self.animated], dtype=np.bool_)
         self.steps = steps_table(np.array(bases))
 
     # ---------------------------------------------------------------- decoding
-    def block_values(self, i: int) -> np.ndarray:
-        """``(n, 3·T)`` decoded values (rotation vectors, translations) of the animated tracks in block ``i``."""
-        if i in self._cache:
-            self._cache.move_to_end(i)
-            return self._cache[i]
+    def _block_values(self, i: int) -> np.ndarray:
         e = self.file.blocks[i]
         where = f"{self.path} (block {i})"
         raw = entropy_decode(self.file.block(i), e.raw, where)
-        v = unpack_block(raw, e.frames, self.dims, self.steps, where)
+        return unpack_block(raw, e.frames, self.dims, self.steps, where)
+
+    def block_values(self, i: int) -> np.ndarray:
+        """``(n, 3·T)`` decoded values (rotation vectors, translations) of the animated tracks in block
+        ``i``; the last :data:`CACHE_BLOCKS` blocks asked for are kept."""
+        if i in self._cache:
+            self._cache.move_to_end(i)
+            return self._cache[i]
+        v = self._block_values(i)
         self._cache[i] = v
         if len(self._cache) > CACHE_BLOCKS:
             self._cache.popitem(last=False)
         return v
 
-    def _fill(self, vals: np.ndarray, rot: np.ndarray, trans: np.ndarray) -> None:
-        for c, (j, kind) in enumerate(self.animated):
-            if kind == "rotation":
-                rot[:, j] = exp_map(vals[:, 3 * c:3 * c + 3])
-            else:
-                trans[:, j] = vals[:, 3 * c:3 * c + 3]
-
-    def decode(self) -> Motion:
-        """The whole motion at its frame times (every block decoded, the final checksum checked)."""
+    def decode_arrays(self, out: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Local rotations ``(N, J, 4)`` and translations ``(N, J, 3)`` of every frame (every block
+        decoded, the final checksum checked) — what a runtime needs, without the model's checks.
+        ``out``: float64 C-ordered arrays of those shapes to write into (a runtime's reused buffers)."""
         self.file.check_all()
         N, J = self.n_frames, self.skeleton.n_joints
-        rot = np.empty((N, J, 4))
-        rot[:] = self.rest_rotations
-        trans = np.empty((N, J, 3))
-        trans[:] = self.rest_translations
-        for i, e in enumerate(self.file.blocks):
-            self._fill(self.block_values(i), rot[e.first:e.first + e.frames], trans[e.first:e.first + e.frames])
+        if out is None:
+            rot, trans = np.empty((N, J, 4)), np.empty((N, J, 3))
+        else:
+            rot, trans = out
+            if rot.shape != (N, J, 4) or trans.shape != (N, J, 3) or rot.dtype != np.float64 or trans.dtype != np.float64 \
+                    or not (rot.flags.c_contiguous and trans.flags.c_contiguous):
+                raise ValueError(f"out must be float64 C arrays of shapes {(N, J, 4)} and {(N, J, 3)}")
+
+        def one(i: int) -> None:  # blocks are independent: decoded on every core (the kernels drop the GIL)
+            e = self.file.blocks[i]
+            _pose(self._block_values(i), self._joints, self._is_rot, self.rest_rotations, self.rest_translations,
+                  rot[e.first:e.first + e.frames], trans[e.first:e.first + e.frames])
+
+        if len(self.file.blocks) == 1 or THREADS == 1:
+            for i in range(len(self.file.blocks)):
+                one(i)
+        else:
+            with ThreadPoolExecutor(max_workers=THREADS) as pool:
+                list(pool.map(one, range(len(self.file.blocks))))
+        return rot, trans
+
+    def decode(self) -> Motion:
+        """The whole motion at its frame times, as a :class:`~mocapkit.skeleton.Motion`."""
+        rot, trans = self.decode_arrays()
         meta = {"frame_time": self.frame_time, "format": "mkc"}
         return Motion(self.skeleton, self.times, rot, trans, channel_values=None, source=self.path, meta=meta)
 
@@ -188,10 +211,10 @@ class Clip:
         w = f - a
         va = self._frame_values(a)
         vals = va if (w == 0.0 or b == a) else va + (self._frame_values(b) - va) * w
-        rot = self.rest_rotations.copy()
-        trans = self.rest_translations.copy()
-        self._fill(vals[None], rot[None], trans[None])
-        return rot, trans
+        rot = np.empty((1, self.skeleton.n_joints, 4))
+        trans = np.empty((1, self.skeleton.n_joints, 3))
+        _pose(vals[None], self._joints, self._is_rot, self.rest_rotations, self.rest_translations, rot, trans)
+        return rot[0], trans[0]
 
     def _frame_values(self, frame: int) -> np.ndarray:
         i = int(np.searchsorted(self._starts, frame, side="right") - 1)
@@ -215,3 +238,24 @@ class Clip:
 def read_mkc(path: str | Path) -> Motion:
     """The decoded motion of a ``.mkc`` clip (every checksum checked)."""
     return Clip(path).decode()
+
+
+@numba.njit(cache=True, nogil=True)
+def _pose(vals, joints, is_rot, rest_rot, rest_trans, rot, trans):
+    """Poses of a block's frames: the rest pose, then the animated tracks' values (rotation vectors
+    through :func:`~mocapkit.rotvec.exp_into`, translations; 3 columns a track)."""
+    J = rest_rot.shape[0]
+    for f in range(vals.shape[0]):
+        for j in range(J):
+            for a in range(4):
+                rot[f, j, a] = rest_rot[j, a]
+            for a in range(3):
+                trans[f, j, a] = rest_trans[j, a]
+        for c in range(joints.shape[0]):
+            j = joints[c]
+            if is_rot[c]:
+                exp_into(vals[f, 3 * c], vals[f, 3 * c + 1], vals[f, 3 * c + 2], rot[f, j])
+            else:
+                trans[f, j, 0] = vals[f, 3 * c]
+                trans[f, j, 1] = vals[f, 3 * c + 1]
+                trans[f, j, 2] = vals[f, 3 * c + 2]
