@@ -30,11 +30,11 @@ import numpy as np
 
 from mocapkit import __version__
 from mocapkit.clip.budget import track_tolerances
-from mocapkit.clip.keys import corridor_keys
+from mocapkit.clip.keys import choose_keys
 from mocapkit.clip.metric import check_metric, errors_from_fk, worst_errors
 from mocapkit.errors import BoundViolationError, InvalidParameterError
 from mocapkit.io.mkc import mkc_bytes
-from mocapkit.io.mkc_codec import ENTROPY, entropy_encode, level_step, pack_block, residual_cost, steps_table, unpack_block
+from mocapkit.io.mkc_codec import ENTROPY, entropy_encode, pack_block, steps_table, unpack_block
 from mocapkit.io.mkc_reader import Clip
 from mocapkit.rotvec import exp_map, log_map
 from mocapkit.skeleton import Motion, forward_kinematics
@@ -80,21 +80,6 @@ def _tracks(motion: Motion) -> list[_Track]:
         else:
             out.append(_Track(j, "translation", "animated", x=np.ascontiguousarray(p)))
     return out
-
-
-def _choose(x: np.ndarray, base: float, r: int) -> tuple[int, int, np.ndarray, np.ndarray]:
-    """Keys of one track in one block at repair level ``r``: tolerance ``level_step(base, r)/2``; the
-    grid step and predictor order with the fewest estimated bits."""
-    tol = level_step(base, r) * 0.5
-    best = None
-    for level in (r, r + 1, r + 2):
-        f, q = corridor_keys(x, tol, level_step(base, level))
-        gaps = np.diff(f)
-        for order in (1, 2):
-            bits = residual_cost(f, q, order) + q.size + float(np.log2(gaps).sum())
-            if best is None or bits < best[0]:
-                best = (bits, level, order, f, q)
-    return best[1:]
 
 
 def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_distance: float = 1.0,
@@ -182,7 +167,7 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     def encode_block(b: int, cols) -> None:
         a, e = spans[b]
         for c in cols:
-            keys[b][c] = _choose(anim[c].x[a:e], anim[c].base, int(r[b, c]))
+            keys[b][c] = choose_keys(anim[c].x[a:e], table[c], int(r[b, c]))
         payload = pack_block(e - a, [keys[b][c] for c in range(T)])
         vals = unpack_block(payload, e - a, dims, table, "<encoder>").reshape(e - a, T, 3)
         rot_dec[a:e, rot_joints] = exp_map(vals[:, rot_cols])

@@ -20,6 +20,7 @@ import numba
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError
+from mocapkit.io.mkc_codec import residual_cost
 
 
 @numba.njit(cache=True)
@@ -96,3 +97,25 @@ def corridor_keys(x: np.ndarray, tol: float, step: float) -> tuple[np.ndarray, n
     if np.abs(x).max() / step >= 2.0**50:
         raise InvalidParameterError(f"step {step:g} is too fine for values up to {np.abs(x).max():g}")
     return _corridor(x, float(tol), float(step))
+
+
+@numba.njit(cache=True)
+def choose_keys(x, steps, r):
+    """Keys of one track in one block at repair level ``r`` (tolerance ``steps[r]/2``, ``steps`` the
+    track's grid step per level): of the grid steps ``steps[r..r+2]`` (``2τ``, ``√2τ``, ``τ``) and the
+    predictor orders 1 and 2, the pair with the fewest estimated bits (``Σ log2(1 + |residual|)`` plus a
+    bit per value and ``log2`` of every key gap). Returns ``(level, order, frames, grid integers)``."""
+    tol = steps[r] * 0.5
+    best_bits = np.inf
+    best_level, best_order = r, 1
+    best_f, best_q = _corridor(x, tol, steps[r])
+    for level in range(r, r + 3):
+        f, q = _corridor(x, tol, steps[level])
+        gap_bits = 0.0
+        for i in range(1, f.shape[0]):
+            gap_bits += math.log2(f[i] - f[i - 1])
+        for order in (1, 2):
+            bits = residual_cost(f, q, order) + q.size + gap_bits
+            if bits < best_bits:
+                best_bits, best_level, best_order, best_f, best_q = bits, level, order, f, q
+    return best_level, best_order, best_f, best_q
