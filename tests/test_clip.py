@@ -353,6 +353,15 @@ def test_pose_at_decodes_one_block_and_matches_the_full_decode(amc, monkeypatch)
     assert np.allclose(np.abs(np.einsum("jc,jc->j", r0, full.rotations[0])), 1, atol=1e-12)
 
 
+def test_the_committed_version_1_clip_still_decodes_within_its_bound(tests_data, walk):
+    clip = Clip(tests_data / "clip" / "walk-meredith-60.mkc")
+    assert clip.header["bound"]["metric"] == "shell" and clip.unit_cm == 2.54
+    b = clip.header["bound"]
+    je, se = naive_errors(walk, clip.decode(), b["shell_distance"])
+    assert se.max() <= b["value"] * (1 + 1e-9) and se.max() > 0.5 * b["value"]
+    assert b["value"] * 2.54 == pytest.approx(0.05)
+
+
 def test_bad_parameters_are_refused(walk):
     with pytest.raises(InvalidParameterError):
         encode_clip(walk, 0.0)
