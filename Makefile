@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 
-.PHONY: demo test bench bench-imu bench-batch sweep fuzz clean pg-start pg-stop
+.PHONY: demo test bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop
 
 $(STAMP): pyproject.toml Makefile
 	$(PY) -m venv $(VENV)
@@ -12,10 +12,11 @@ $(STAMP): pyproject.toml Makefile
 	$(BIN)/python -m pip install -q -e '.[test]'
 	touch $(STAMP)
 
-# the Khronos glTF validator is used by the tests only (skipped with a reason where node is missing)
+# the Khronos glTF validator is used by the tests only (skipped with a reason where node is missing);
+# gltfpack (meshoptimizer) by benchmarks/gltfpack_anchor.py
 $(NODE_STAMP): $(STAMP)
 	@if command -v npm >/dev/null; then \
-		npm install --prefix $(VENV)/node gltf-validator@2.0.0-dev.3.10 --no-audit --no-fund --silent && touch $(NODE_STAMP); \
+		npm install --prefix $(VENV)/node gltf-validator@2.0.0-dev.3.10 gltfpack@1.3.0 --no-audit --no-fund --silent && touch $(NODE_STAMP); \
 	else echo "npm not found: the glTF validator tests will be skipped"; fi
 
 demo: $(STAMP)
@@ -39,6 +40,11 @@ sweep: $(STAMP)
 # MOCAPKIT_TEST_PG names a server: make pg-start); needs ../shared/data; writes docs/batch_bench.json
 bench-batch: $(STAMP)
 	$(BIN)/python benchmarks/batch_scale.py --n 1000 --work build/batch-bench --json docs/batch_bench.json
+
+# the .mkc clip against ACL's figures, encode speed against the previous path, decode / pose_at speed;
+# needs ../shared/data; writes docs/clip_bench.json
+bench-clip: $(STAMP)
+	$(BIN)/python benchmarks/clip_bench.py --json docs/clip_bench.json
 
 # issue 10's adversarial trial (tools/trial.py): mutated files of every format, odd output paths, extreme
 # options, kill -9, huge claims; prints category x outcome counts, writes $(FUZZ_OUT)/report.md and .json,

@@ -106,8 +106,11 @@ def test_errors_name_the_path_the_user_gave(bvh, tmp_path):
 @pytest.mark.parametrize("suffix", [".glb", ".gltf"])
 def test_decompress_clip_to_bvh_equals_the_decoded_motion(bvh, tmp_path, suffix):
     clip = tmp_path / f"clip{suffix}"
-    r = run("compress", bvh, "--max-position-error", "0.5", "--unit-cm", "2.54", "-o", clip)
+    r = run("compress", bvh, "--max-position-error", "0.5", "--unit-cm", "2.54", "-o", clip, "--gltf-rotations",
+            "float", "--json")
     assert r.returncode == 0, r.stderr
+    inner = json.loads(r.stdout)["bound"]  # compressed within a bound that leaves room for float32 storage
+    assert inner < 0.5 / 2.54
     out = tmp_path / "back.bvh"
     r = run("decompress", clip, "-o", out)
     assert r.returncode == 0, r.stderr
@@ -116,7 +119,7 @@ def test_decompress_clip_to_bvh_equals_the_decoded_motion(bvh, tmp_path, suffix)
     assert back.n_frames == orig.n_frames and back.skeleton.names == orig.skeleton.names
     assert back.skeleton.channels == orig.skeleton.channels
     # the same compression in memory, decoded: equal up to float32 storage and 6 BVH decimals
-    comp = compress_motion(orig, "fastsw", max_position_error=0.5 / 2.54)
+    comp = compress_motion(orig, "fastsw", max_position_error=inner)
     P0, _ = forward_kinematics(comp.decode())
     P1, _ = forward_kinematics(back)
     assert np.abs(P1 - P0).max() < 1e-3

@@ -13,9 +13,10 @@ from rich.table import Table
 
 from mocapkit.cli_options import (  # noqa: F401 - _console, _json and the limits are part of the module's face
     MAX_FILTER_ORDER, MAX_SEGMENT_LENGTH, RATE_RANGE, UNIT_RANGE, AsfOpt, AutoOpt, ColumnsOpt, DownsampleOpt,
-    JointOpt, LabelsOpt, MarkersOpt, MaxAngleOpt, MaxLenOpt, MaxPositionErrorOpt, Method, MethodOpt, OrderOpt,
+    BlockFramesOpt, ErrorMetric, ErrorMetricOpt, GltfRotations, GltfRotationsOpt, JointOpt, LabelsOpt, MarkersOpt, MaxAngleOpt, MaxLenOpt, MaxPositionErrorOpt,
+    Method, MethodOpt, OrderOpt,
     PenaltyOpt, QuatColumnsOpt, RateOpt, ScalarLastOpt, SegMethod, SegMethodOpt, SegRateOpt, Solver, SolverOpt,
-    StrictOpt, TargetIcrOpt, ThresholdOpt, TimeColumnOpt, TimeUnitOpt, TrainOpt, UnitCmOpt, _check_output,
+    ShellDistanceOpt, StrictOpt, TargetIcrOpt, ThresholdOpt, TimeColumnOpt, TimeUnitOpt, TrainOpt, UnitCmOpt, _check_output,
     _console, _json, _progress, _within, console, err, print_warnings,
 )
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapError
@@ -88,6 +89,10 @@ def compress(
     asf: AsfOpt = None,
     max_position_error: MaxPositionErrorOpt = None,
     unit_cm: UnitCmOpt = None,
+    gltf_rotations: GltfRotationsOpt = GltfRotations.short,
+    error_metric: ErrorMetricOpt = ErrorMetric.joint,
+    shell_distance: ShellDistanceOpt = 3.0,
+    block_frames: BlockFramesOpt = None,
     strict: StrictOpt = True,
     stats_only: Annotated[
         bool, typer.Option("--stats-only", help="Only measure (print the table); write no points or clip.")
@@ -96,7 +101,8 @@ def compress(
     """Compress orientation streams (IMU files, sensor folders) or whole skeletons (BVH, AMC).
 
     IMU input: segment points as CSV time,w,x,y,z (to -o, or to stdout for one file). Skeletal input:
-    keyframes as glTF (.glb/.gltf) or the decoded full-rate motion as .bvh (-o). Without -o, a result
+    a .mkc clip (the smallest; bounded by --max-position-error in the --error-metric, checked on the
+    written bytes), keyframes as glTF (.glb/.gltf) or the decoded full-rate motion as .bvh (-o). Without -o, a result
     that cannot go to stdout is refused before any work unless --json or --stats-only asks for the numbers.
     """
     from mocapkit.jobs import compress_job
@@ -109,11 +115,16 @@ def compress(
         max_segment_length=max_segment_length, rate=rate, time_column=time_column,
         quaternion_columns=quaternion_columns, scalar_last=scalar_last, time_unit=time_unit, asf=asf,
         max_position_error=max_position_error, unit_cm=unit_cm, strict=strict, output=output,
-        points_stream=None if numbers_only else sys.stdout, discard_ok=numbers_only, progress=_progress)
+        points_stream=None if numbers_only else sys.stdout, discard_ok=numbers_only, progress=_progress,
+        gltf_rotations=gltf_rotations.value, error_metric=error_metric.value, shell_distance=shell_distance,
+        block_frames=block_frames)
     print_warnings(rec)
     if rec["kind"] == "skeletal":
         if as_json:
             print(_json(rec, f"{input}: compress --json"))
+            return
+        if rec["method"] == "mkc":
+            _clip_table(rec, input)
             return
         tab = Table(title=f"{input.name}: {rec['method']} ({rec['mode']})")
         tab.add_column("quantity")
@@ -134,6 +145,19 @@ def compress(
             _summary_table(rec["signals"], f"{rec['method']}: {rec['mode']} {rec['target']:g}"))
     if rec["skipped_files"]:
         err.print(f"not orientation data, skipped: {', '.join(rec['skipped_files'])}")
+
+
+def _clip_table(rec: dict, input: Path) -> None:
+    tab = Table(title=f"{input.name} -> {rec['output']}: {rec['error_metric']} error <= {rec['max_position_error_cm']:g} cm")
+    tab.add_column("quantity")
+    tab.add_column("value", justify="right")
+    for k in ("frames", "joints", "keyframes", "blocks", "max_joint_error_cm", "max_shell_error_cm",
+              "mean_joint_error_cm", "mean_shell_error_cm", "bytes", "bytes_raw_float32", "ratio", "encode_s"):
+        v = rec[k]
+        tab.add_row(k, f"{v:.4g}" if isinstance(v, float) else str(v))
+    console.print(tab)
+    if rec["unit_cm_assumed"]:
+        err.print("length unit assumed to be 1 cm; give --unit-cm for other units")
 
 
 @app.command()
@@ -377,7 +401,7 @@ def filter_eval(
 
 @app.command()
 def decompress(
-    points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z), or a compressed clip (.glb/.gltf).")],
+    points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z), or a compressed clip (.mkc, .glb/.gltf).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="Reconstructed CSV (.bvh for a clip).")],
     times_from: Annotated[
         Optional[Path], typer.Option("--times-from", help="Decode at the timestamps of this original file.")
@@ -396,12 +420,20 @@ def decompress(
     time_unit: TimeUnitOpt = None,
 ) -> None:
     """Reconstruct a full-rate quaternion signal from segment points by SLERP, or the full-rate motion
-    of a compressed skeletal clip (.glb/.gltf -> .bvh)."""
+    of a compressed skeletal clip (.mkc -> .bvh/.glb; .glb/.gltf -> .bvh)."""
     import numpy as np
 
     _check_output(output, source=points, inputs=(times_from,))
     if points.suffix.lower() in (".glb", ".gltf"):
         _decompress_clip(points, output, times_from, rate)
+        return
+    if points.suffix.lower() == ".mkc":
+        from mocapkit.jobs.clip import decompress_clip_job
+
+        if times_from is not None or rate is not None:
+            raise InvalidParameterError("a .mkc clip keeps its own frame times: drop --times-from / --rate")
+        rec = decompress_clip_job(points, output)
+        err.print(f"{points}: {rec['frames']} frames, {rec['joints']} joints -> {output}")
         return
     from mocapkit.io.loaders import kind_of
 

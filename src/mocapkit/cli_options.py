@@ -221,6 +221,31 @@ UnitCmOpt = Annotated[
     Optional[float], typer.Option("--unit-cm", help="Skeletal input: centimetres per file length unit.",
                                   callback=_within(*UNIT_RANGE))
 ]
+
+
+class GltfRotations(str, Enum):
+    short = "short"
+    float = "float"
+
+
+GltfRotationsOpt = Annotated[
+    GltfRotations, typer.Option("--gltf-rotations", help="glTF output: rotation keys as normalized SHORT "
+                                "(smaller; the bound is still checked on the file) or FLOAT.")
+]
+class ErrorMetric(str, Enum):
+    joint = "joint"
+    shell = "shell"
+
+
+ErrorMetricOpt = Annotated[
+    ErrorMetric, typer.Option("--error-metric", help="What --max-position-error bounds in a .mkc clip: every joint, "
+                              "or (ACL's metric) every shell point at --shell-distance along each joint's axes.")
+]
+ShellDistanceOpt = Annotated[float, typer.Option("--shell-distance", help="Shell metric: the points' distance "
+                                                 "from each joint, in cm (ACL's default 3).",
+                                                 callback=_within(1e-6, 1e6))]
+BlockFramesOpt = Annotated[Optional[int], typer.Option("--block-frames", help=".mkc clip: frames per random-access "
+                                                       "block (default 512).", callback=_within(2, 1_000_000))]
 OrderOpt = Annotated[int, typer.Option("--order", help="Polynomial order of every chunk (0..10).",
                                        callback=_within(0, MAX_FILTER_ORDER))]
 PenaltyOpt = Annotated[Optional[float], typer.Option("--penalty", help="K: the cost of a knot, in signal units.",

@@ -8,6 +8,19 @@ position is animated, a translation channel. Keyframe quaternions are normalised
 the same result. Lengths are converted to metres (glTF's unit) with ``unit_m`` metres per file unit.
 ``.glb`` (binary) or ``.gltf`` (JSON with the buffer embedded as a data URI) by the suffix.
 
+Rotation keys are stored as FLOAT (``rotations="float"``) or, 40 % smaller, as normalized SHORT
+(``rotations="short"``: componentType 5122 with ``normalized: true``, which the glTF 2.0 core spec
+allows for rotation sampler outputs; keyframe times stay FLOAT as the spec requires). Each component
+of the normalised, hemisphere-continuous key ``q`` is rounded to the nearest ``c = round(32767·q)``;
+a decoder reads ``max(c/32767, -1)`` and renormalises. Worst case this adds (derivation): every
+component moves by at most ``0.5/32767``, so the 4-vector moves by at most ``√4·0.5/32767 = 1/32767``
+and its direction by at most ``asin(1/32767)``; a rotation angle is twice the angle between its unit
+quaternions, so a SHORT key is off by at most :data:`SHORT_KEY_ANGLE` ``= 2·asin(1/32767)`` = 6.10e-5 rad
+(0.0035°), which moves a point 1 m from the joint by at most 0.061 mm. Between two keys ``θ`` apart,
+the SLERP of the rounded keys stays within ``SHORT_KEY_ANGLE / cos(θ/4)`` of the exact one (to first
+order; ``≤ √2·SHORT_KEY_ANGLE`` since hemisphere-continuous keys are at most 180° apart). FLOAT keys
+add at most :data:`FLOAT_KEY_ANGLE` ``= 2·asin(2^-24)`` (float32 rounding of each component ``≤ 2^-25``).
+
 The animation's ``extras["mocapkit"]`` keeps what glTF has no place for (frame times, the BVH channels of
 every joint, the number of joint nodes, the length unit), so :func:`read_gltf` decodes a file written here
 back to the full-rate motion exactly as :meth:`SkeletalCompressed.decode` does (up to float32). Other glTF
@@ -19,7 +32,12 @@ A file with ``extras["mocapkit"]`` must hold every field written here (none is d
 with itself: one channel list and offset per joint, rotation channels none or X, Y, Z once each, a
 rotation/translation track exactly for joints with rotation/position channels (and no motion a BVH
 channel list could not write), the scene's roots exactly the parentless nodes, every joint named;
-accessor ``min``/``max`` (written for every accessor) must match the values read.
+accessor ``min``/``max`` (written for every accessor) must match the values read (the stored integers
+for a normalized accessor, as the spec says). Accessor types are checked against what the core spec
+allows where they are used: keyframe times and translations FLOAT, rotations FLOAT or normalized
+BYTE/UNSIGNED_BYTE/SHORT/UNSIGNED_SHORT (decoded ``max(c/127, -1)``, ``c/255``, ``max(c/32767, -1)``,
+``c/65535``); any other componentType, a ``normalized`` flag on the wrong type, an integer rotation
+without it, or a sparse accessor is an error naming the file.
 """
 
 from __future__ import annotations
@@ -44,6 +62,23 @@ MAX_VALUES = MAX_JOINT_FRAMES  # joint-frames decoded at most (~1.1 GB as float6
 _VALID_CHANNELS = POSITION_CHANNELS + ROTATION_CHANNELS
 
 
+#: the ways rotation keys can be stored (``rotations=`` of :func:`build_gltf` / :func:`write_gltf`)
+ROTATION_FORMATS = ("float", "short")
+SHORT_SCALE = 32767
+#: worst-case rotation angle (radians) one key stored as normalized SHORT adds (module notes)
+SHORT_KEY_ANGLE = 2.0 * math.asin(1.0 / SHORT_SCALE)
+#: worst-case rotation angle (radians) one key stored as float32 adds (each component rounded by <= 2^-25)
+FLOAT_KEY_ANGLE = 2.0 * math.asin(2.0**-24)
+
+
+def quantize_rotations(q: np.ndarray) -> np.ndarray:
+    """``(M, 4)`` quaternions (any order of components, not yet normalised) as the int16 components
+    ``round(32767·q/|q|)`` stored by a normalized SHORT accessor."""
+    q = np.asarray(q, dtype=np.float64)
+    u = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return np.clip(np.rint(u * SHORT_SCALE), -SHORT_SCALE, SHORT_SCALE).astype(np.int16)
+
+
 class _Blob:
     def __init__(self) -> None:
         self.data = bytearray()
@@ -51,7 +86,10 @@ class _Blob:
         self.accessors: list[g.Accessor] = []
 
     def add(self, arr: np.ndarray, type_: str, minmax: bool = False) -> int:
-        a = np.ascontiguousarray(arr, dtype=np.float32)
+        """Append ``arr`` as an accessor: int16 arrays as normalized SHORT, anything else as FLOAT;
+        ``min``/``max`` are the stored values (the integers for SHORT, as the spec requires)."""
+        short = np.asarray(arr).dtype == np.int16
+        a = np.ascontiguousarray(arr, dtype="<i2" if short else "<f4")
         while len(self.data) % 4:
             self.data.append(0)
         off = len(self.data)
@@ -59,20 +97,25 @@ class _Blob:
         self.views.append(g.BufferView(buffer=0, byteOffset=off, byteLength=a.nbytes))
         acc = g.Accessor(
             bufferView=len(self.views) - 1,
-            componentType=g.FLOAT,
+            componentType=g.SHORT if short else g.FLOAT,
+            normalized=True if short else None,
             count=int(a.shape[0]),
             type=type_,
         )
         if minmax:
             flat = a.reshape(a.shape[0], -1)
-            acc.min = [float(v) for v in flat.min(axis=0)]
-            acc.max = [float(v) for v in flat.max(axis=0)]
+            cast = int if short else float
+            acc.min = [cast(v) for v in flat.min(axis=0)]
+            acc.max = [cast(v) for v in flat.max(axis=0)]
         self.accessors.append(acc)
         return len(self.accessors) - 1
 
 
-def build_gltf(comp, unit_m: float = 0.01, name: str = "mocapkit") -> g.GLTF2:
-    """A :class:`pygltflib.GLTF2` for a :class:`~mocapkit.pla.skeletal.SkeletalCompressed`."""
+def build_gltf(comp, unit_m: float = 0.01, name: str = "mocapkit", rotations: str = "float") -> g.GLTF2:
+    """A :class:`pygltflib.GLTF2` for a :class:`~mocapkit.pla.skeletal.SkeletalCompressed`; rotation keys
+    as ``"float"`` or normalized ``"short"`` (module notes: worst-case error of each)."""
+    if rotations not in ROTATION_FORMATS:
+        raise InvalidParameterError(f"rotations must be one of {', '.join(ROTATION_FORMATS)}, got {rotations!r}")
     motion = comp.motion
     sk = motion.skeleton
     nodes: list[g.Node] = []
@@ -109,7 +152,8 @@ def build_gltf(comp, unit_m: float = 0.01, name: str = "mocapkit") -> g.GLTF2:
     for j, c in sorted(comp.rotations.items()):
         q = c.values / np.linalg.norm(c.values, axis=1, keepdims=True)
         q = hemisphere_continuous(q)
-        out = blob.add(np.concatenate([q[:, 1:], q[:, :1]], axis=1), g.VEC4, minmax=True)
+        xyzw = np.concatenate([q[:, 1:], q[:, :1]], axis=1)
+        out = blob.add(quantize_rotations(xyzw) if rotations == "short" else xyzw, g.VEC4, minmax=True)
         samplers.append(g.AnimationSampler(input=times_accessor(c.times), output=out, interpolation="LINEAR"))
         channels.append(g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="rotation")))
     for j, c in sorted(comp.translations.items()):
@@ -140,20 +184,37 @@ def build_gltf(comp, unit_m: float = 0.01, name: str = "mocapkit") -> g.GLTF2:
     return gl
 
 
-def write_gltf(path: str | Path, comp, unit_m: float = 0.01, name: str = "mocapkit") -> Path:
-    """Write ``.glb`` or ``.gltf`` (chosen by the suffix) atomically, with the normal file mode."""
+def gltf_bytes(comp, suffix: str = ".glb", unit_m: float = 0.01, name: str = "mocapkit",
+               rotations: str = "float") -> bytes:
+    """The bytes :func:`write_gltf` writes for ``suffix`` ``.glb`` or ``.gltf``."""
+    suffix = suffix.lower()
+    if suffix not in (".glb", ".gltf"):
+        raise InvalidParameterError(f"a glTF file ends in .glb or .gltf, got {suffix!r}")
+    gl = build_gltf(comp, unit_m=unit_m, name=name, rotations=rotations)
+    data = gl._blob
+    if suffix == ".glb":
+        gl.set_binary_blob(data)
+        return b"".join(gl.save_to_bytes())
+    gl.buffers[0].uri = "data:application/octet-stream;base64," + base64.b64encode(data).decode("ascii")
+    return gl.gltf_to_json().encode("utf-8")
+
+
+def write_gltf(path: str | Path, comp, unit_m: float = 0.01, name: str = "mocapkit", rotations: str = "float",
+               data: bytes | None = None) -> Path:
+    """Write ``.glb`` or ``.gltf`` (chosen by the suffix) atomically, with the normal file mode.
+
+    ``rotations``: ``"float"`` or ``"short"`` (normalized SHORT keys, module notes). ``data``: the bytes
+    of :func:`gltf_bytes` for this suffix when the caller already built (and checked) them."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".glb", ".gltf"):
         raise InvalidParameterError(f"{path}: a glTF file ends in .glb or .gltf")
-    gl = build_gltf(comp, unit_m=unit_m, name=name)
-    data = gl._blob
+    if data is None:
+        data = gltf_bytes(comp, suffix, unit_m=unit_m, name=name, rotations=rotations)
     if suffix == ".glb":
-        gl.set_binary_blob(data)
-        atomic_write_bytes(path, b"".join(gl.save_to_bytes()))
+        atomic_write_bytes(path, data)
     else:
-        gl.buffers[0].uri = "data:application/octet-stream;base64," + base64.b64encode(data).decode("ascii")
-        atomic_write_text(path, gl.gltf_to_json())
+        atomic_write_text(path, data.decode("utf-8"))
     return path
 
 
@@ -229,11 +290,13 @@ def _glb(data: bytes) -> tuple[dict, bytes]:
     return _json(chunks[0][1]), blob
 
 
-def _load(path: Path) -> tuple[dict, bytes]:
+def _load(path: Path, data: bytes | None = None) -> tuple[dict, bytes]:
+    """The JSON document and buffer 0 of ``path`` (or of its bytes ``data``, already read)."""
     from mocapkit.io.textinput import read_input
 
     src = str(path)
-    data = read_input(path, "glTF file", max_stream_bytes=MAX_FILE_BYTES, text=False)
+    if data is None:
+        data = read_input(path, "glTF file", max_stream_bytes=MAX_FILE_BYTES, text=False)
     try:
         if data[:4] == b"glTF":
             return _glb(data)
@@ -288,16 +351,43 @@ def _vec(v, n: int, what: str, default) -> np.ndarray:
     return np.array([_num(x, what) for x in v], dtype=np.float64)
 
 
-def _accessor(doc: dict, blob: bytes, i, what: str) -> np.ndarray:
-    """Float SCALAR/VEC3/VEC4 accessor ``i`` as ``(count, n)`` float64, every value finite and at most
-    MAX_ABS; bounds checked against the view and the buffer before anything is read."""
+# componentType -> (little-endian dtype, name, divisor of a normalized value, signed)
+_COMPONENTS = {
+    5120: ("<i1", "BYTE", 127.0, True),
+    5121: ("<u1", "UNSIGNED_BYTE", 255.0, False),
+    5122: ("<i2", "SHORT", 32767.0, True),
+    5123: ("<u2", "UNSIGNED_SHORT", 65535.0, False),
+    5125: ("<u4", "UNSIGNED_INT", None, False),
+    5126: ("<f4", "FLOAT", None, True),
+}
+#: (componentType, normalized) pairs the core spec allows for each use in an animation
+_FLOAT_ONLY = frozenset({(_FLOAT, False)})
+_ROTATION_OUTPUT = frozenset({(_FLOAT, False), (5120, True), (5121, True), (5122, True), (5123, True)})
+
+
+def _accessor(doc: dict, blob: bytes, i, what: str, allowed=_FLOAT_ONLY) -> tuple[np.ndarray, float | None]:
+    """Accessor ``i`` (SCALAR/VEC3/VEC4) as ``(count, n)`` float64 and the divisor of its normalized
+    integers (``None`` for FLOAT). Its componentType and ``normalized`` flag must be one of ``allowed``
+    (pairs); normalized integers are decoded as the spec says (``max(c/127, -1)``, ``c/255``,
+    ``max(c/32767, -1)``, ``c/65535``); float values must be finite and at most MAX_ABS. Alignment and
+    bounds are checked against the view and the buffer before anything is read."""
     accessors, views = _list(doc, "accessors"), _list(doc, "bufferViews")
     i = _int(i, f"{what}: accessor index", 0, len(accessors) - 1)
     acc = _obj(accessors[i], f"accessor {i}")
     n = _N_COMP.get(acc.get("type"))
-    if n is None or acc.get("componentType") != _FLOAT:
-        raise _Bad(f"accessor {i} is not a float SCALAR/VEC3/VEC4 (type {str(acc.get('type'))[:20]}, "
-                   f"componentType {str(acc.get('componentType'))[:20]})")
+    ctype, norm = acc.get("componentType"), acc.get("normalized", False)
+    if not isinstance(norm, bool):
+        raise _Bad(f"accessor {i}: normalized must be true or false, got {str(norm)[:20]}")
+    comp = _COMPONENTS.get(ctype) if isinstance(ctype, int) and not isinstance(ctype, bool) else None
+    if n is None or comp is None or (ctype, norm) not in allowed:
+        kinds = " or ".join(f"normalized {_COMPONENTS[c][1]}" if nm else _COMPONENTS[c][1] for c, nm in sorted(allowed))
+        got = f"{_COMPONENTS[ctype][1]} ({ctype})" if comp is not None else str(ctype)[:20]
+        raise _Bad(f"accessor {i} ({what}) is type {str(acc.get('type'))[:20]}, componentType {got}"
+                   f"{', normalized' if norm else ''}; glTF allows here SCALAR/VEC3/VEC4 of {kinds}")
+    if "sparse" in acc:
+        raise _Bad(f"accessor {i}: sparse accessors are not read")
+    dtype, _, scale, signed = comp
+    size = np.dtype(dtype).itemsize
     vi = _int(acc.get("bufferView"), f"accessor {i}: bufferView", 0, len(views) - 1)
     view = _obj(views[vi], f"bufferView {vi}")
     _int(view.get("buffer", 0), f"bufferView {vi}: buffer", 0, 0)
@@ -305,34 +395,40 @@ def _accessor(doc: dict, blob: bytes, i, what: str) -> np.ndarray:
     v_len = _int(view.get("byteLength"), f"bufferView {vi}: byteLength")
     if v_off + v_len > len(blob):
         raise _Bad(f"bufferView {vi} ({v_len} bytes at {v_off}) reaches past the end of the {len(blob)}-byte buffer")
+    elem = size * n
     stride = view.get("byteStride")
-    stride = 4 * n if stride is None else _int(stride, f"bufferView {vi}: byteStride", 4, 252)
-    if stride % 4 or stride < 4 * n:
-        raise _Bad(f"bufferView {vi}: byteStride {stride} does not hold {n} floats (multiple of 4, >= {4 * n})")
+    stride = elem if stride is None else _int(stride, f"bufferView {vi}: byteStride", 4, 252)
+    if stride % size or stride < elem:
+        raise _Bad(f"bufferView {vi}: byteStride {stride} does not hold {n} {comp[1]} values "
+                   f"(multiple of {size}, >= {elem})")
     a_off = _int(acc.get("byteOffset", 0), f"accessor {i}: byteOffset")
     count = _int(acc.get("count"), f"accessor {i}: count", 1)
-    if a_off % 4 or (v_off + a_off) % 4:
-        raise _Bad(f"accessor {i}: byteOffset {a_off} is not a multiple of 4")
-    if a_off + stride * (count - 1) + 4 * n > v_len:
+    if a_off % size or (v_off + a_off) % size:
+        raise _Bad(f"accessor {i}: byteOffset {a_off} is not a multiple of {size} (the {comp[1]} size)")
+    if a_off + stride * (count - 1) + elem > v_len:
         raise _Bad(f"accessor {i}: {count} elements reach past the end of bufferView {vi} ({v_len} bytes)")
     start = v_off + a_off
-    raw = np.frombuffer(blob, dtype="<f4", count=(stride * (count - 1) + 4 * n) // 4, offset=start)
-    out = raw.reshape(-1, n) if stride == 4 * n else np.lib.stride_tricks.as_strided(
-        raw, shape=(count, n), strides=(stride, 4), writeable=False)
-    out = out.astype(np.float64)
-    bad = ~(np.abs(out) <= MAX_ABS)
-    if bad.any():
-        k = int(np.flatnonzero(bad.any(axis=1))[0])
-        raise _Bad(f"accessor {i} element {k}: {out[k].tolist()} is not finite or larger than {MAX_ABS:g}")
-    _check_min_max(acc, i, out)
-    return out
+    raw = np.frombuffer(blob, dtype=dtype, count=(stride * (count - 1) + elem) // size, offset=start)
+    stored = raw.reshape(-1, n) if stride == elem else np.lib.stride_tricks.as_strided(
+        raw, shape=(count, n), strides=(stride, size), writeable=False)
+    stored = stored.astype(np.float64)
+    if scale is None:
+        bad = ~(np.abs(stored) <= MAX_ABS)
+        if bad.any():
+            k = int(np.flatnonzero(bad.any(axis=1))[0])
+            raise _Bad(f"accessor {i} element {k}: {stored[k].tolist()} is not finite or larger than {MAX_ABS:g}")
+    _check_min_max(acc, i, stored)  # min/max are the stored values, normalized or not (spec 3.6.2.5)
+    if not norm:
+        return stored, None
+    out = stored / scale
+    return (np.maximum(out, -1.0) if signed else out), scale
 
 
 def _sample(key_t: np.ndarray, key_v: np.ndarray, t: np.ndarray, rotation: bool) -> np.ndarray:
     """glTF ``LINEAR`` sampling: SLERP for rotations, linear otherwise; held before/after the keys."""
     tc = np.clip(t, key_t[0], key_t[-1])
     if len(key_t) == 1:
-        return np.repeat(key_v[:1], len(t), axis=0)
+        return np.repeat(normalize(key_v[:1]) if rotation else key_v[:1], len(t), axis=0)
     k = np.clip(np.searchsorted(key_t, tc, side="right") - 1, 0, len(key_t) - 2)
     f = (tc - key_t[k]) / (key_t[k + 1] - key_t[k])
     if rotation:
@@ -340,7 +436,7 @@ def _sample(key_t: np.ndarray, key_v: np.ndarray, t: np.ndarray, rotation: bool)
     return key_v[k] + f[:, None] * (key_v[k + 1] - key_v[k])
 
 
-def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
+def read_gltf(path: str | Path, rate: float | None = None, data: bytes | None = None) -> Motion:
     """Decode the first animation of a glTF file to a full-rate skeletal :class:`Motion`.
 
     A file written by :func:`write_gltf` is decoded at its original frame times, in its original length
@@ -351,6 +447,8 @@ def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
     Every problem is a :class:`~mocapkit.errors.MocapFormatError` naming ``path``: malformed JSON or
     GLB chunks, indices out of range, accessors reaching past their buffer, NaN or huge values, node
     cycles or shared children; the work is linear in the file size (deep node chains included).
+    ``data``: the file's bytes, decoded exactly as the file would be (a writer checking what it is
+    about to write); ``path`` then only names it in messages (and locates an external buffer).
     """
     p = Path(path)
     src = str(p)
@@ -362,7 +460,7 @@ def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
         if not 1.0 / MAX_FRAME_TIME <= r <= 1.0 / MIN_FRAME_TIME:
             raise InvalidParameterError(f"rate must be between {1 / MAX_FRAME_TIME:g} and {1 / MIN_FRAME_TIME:g} Hz, got {rate!r}")
         rate = r
-    doc, blob = _load(p)
+    doc, blob = _load(p, data)
     try:
         return _decode(doc, blob, src, rate)
     except _Bad as exc:
@@ -371,10 +469,11 @@ def read_gltf(path: str | Path, rate: float | None = None) -> Motion:
         raise MocapFormatError(src, None, f"malformed glTF content ({type(exc).__name__}: {exc})") from None
 
 
-def _unit_like(q: np.ndarray) -> bool:
-    """Quaternions whose norm is 1 up to float32 storage and writer rounding (glTF requires unit ones)."""
+def _unit_like(q: np.ndarray, scale: float | None = None) -> bool:
+    """Quaternions whose norm is 1 up to float32 storage and writer rounding (glTF requires unit ones);
+    normalized integers with divisor ``scale`` may be off by their rounding too (``≤ 2·0.5/scale``)."""
     n = np.linalg.norm(q, axis=-1)
-    return bool(np.all(np.abs(n - 1.0) < 1e-3))
+    return bool(np.all(np.abs(n - 1.0) < 1e-3 + (0.0 if scale is None else 1.0 / scale)))
 
 
 def _check_size(n_frames: int, n_joints: int) -> None:
@@ -539,15 +638,19 @@ def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
             smp = _obj(samplers[si], f"sampler {si}")
             if smp.get("interpolation", "LINEAR") != "LINEAR":
                 raise _Bad(f"sampler {si}: only LINEAR interpolation is read, got {str(smp.get('interpolation'))[:20]}")
-            kt = _accessor(doc, blob, smp.get("input"), f"sampler {si} input")[:, 0]
-            kv = _accessor(doc, blob, smp.get("output"), f"sampler {si} output")
+            kt = _accessor(doc, blob, smp.get("input"), f"sampler {si} input")[0]
+            if kt.shape[1] != 1:
+                raise _Bad(f"sampler {si}: key times must be SCALAR")
+            kt = kt[:, 0]
+            kv, scale = _accessor(doc, blob, smp.get("output"), f"sampler {si} {kind} output",
+                                  _ROTATION_OUTPUT if kind == "rotation" else _FLOAT_ONLY)
             if len(kt) != len(kv) or np.any(np.diff(kt) <= 0):
                 raise _Bad(f"sampler {si}: key times must increase and match the values")
             if kind == "rotation":
                 if kv.shape[1] != 4:
                     raise _Bad(f"sampler {si}: rotation keys must be VEC4")
                 kv = kv[:, [3, 0, 1, 2]]
-                if not _unit_like(kv):
+                if not _unit_like(kv, scale):
                     raise _Bad(f"sampler {si}: a key is not a unit quaternion")
             else:
                 if kv.shape[1] != 3:
@@ -573,7 +676,7 @@ def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
         span = (t1 - t0) / ft
         if not span < MAX_VALUES:
             raise _Bad(f"keyframes over {t1 - t0:g} s at {rate:g} Hz are more frames than this reader decodes")
-        n = int(math.floor(span + 1e-9)) + 1
+        n = int(math.floor(span + 1e-3)) + 1  # float32 key times end a hair before the last frame
         _check_size(n, n_nodes)
         times = t0 + ft * np.arange(n)
     J, N = n_nodes, len(times)

@@ -56,14 +56,19 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
                  quaternion_columns: str | None = None, scalar_last: bool = False, time_unit: str | None = None,
                  asf: Path | None = None, max_position_error: float | None = None, unit_cm: float | None = None,
                  strict: bool = True, output: Path | None = None, points_stream: TextIO | None = None,
-                 discard_ok: bool = True, progress: Progress = no_progress) -> dict:
+                 discard_ok: bool = True, progress: Progress = no_progress, gltf_rotations: str = "short",
+                 error_metric: str = "joint", shell_distance: float = 3.0, block_frames: int | None = None) -> dict:
     """Compress ``path`` and return the record of ``mocapkit compress --json``.
 
     IMU input (exactly one of ``threshold``, ``target_icr``, ``max_angle``): points CSV ``time,w,x,y,z`` to
     ``output`` (a folder of one CSV per sensor for a folder or a multi-sensor file), or to ``points_stream``
     for one signal without ``output``. Skeletal input (one of ``threshold``, ``target_icr``,
     ``max_position_error`` in cm): keyframes as ``.glb``/``.gltf`` or the decoded motion as ``.bvh``.
-    ``discard_ok=False`` refuses, before any work, a run whose points would go nowhere.
+    glTF rotation keys are ``gltf_rotations`` ``"short"`` (normalized SHORT, smaller) or ``"float"``; with
+    a bound, the written file is decoded and checked against it (:mod:`mocapkit.jobs.gltf_out`).
+    ``discard_ok=False`` refuses, before any work, a run whose points would go nowhere. A ``.mkc`` output is
+    the clip format (:mod:`mocapkit.jobs.clip`): bounded by ``max_position_error`` in the ``error_metric``
+    (``"joint"`` or ``"shell"`` at ``shell_distance`` cm), ``block_frames`` frames per random-access block.
     """
     from mocapkit.io.loaders import kind_of
 
@@ -77,8 +82,18 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
             raise InvalidParameterError(
                 f"{path}: give -o OUT.glb|OUT.gltf|OUT.bvh to keep the compressed clip "
                 "(or --json / --stats-only to print only the numbers)")
+        if output is not None and output.suffix.lower() == ".mkc":
+            from mocapkit.jobs.clip import compress_clip_job
+
+            if threshold is not None or target_icr is not None or max_angle is not None:
+                raise InvalidParameterError(f"{output}: a .mkc clip is bounded by --max-position-error CM only")
+            return compress_clip_job(path, output, max_position_error=max_position_error, error_metric=error_metric,
+                                     shell_distance=shell_distance, unit_cm=unit_cm, asf=asf, rate=rate,
+                                     strict=strict, block_frames=block_frames, progress=progress)
+        if error_metric != "joint" or block_frames is not None:
+            raise InvalidParameterError("--error-metric shell and --block-frames apply to a .mkc clip (-o CLIP.mkc)")
         return _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle,
-                         max_segment_length, rate, asf, unit_cm, strict, progress)
+                         max_segment_length, rate, asf, unit_cm, strict, progress, gltf_rotations)
     if max_position_error is not None or asf is not None or unit_cm is not None:
         raise InvalidParameterError("--max-position-error, --asf and --unit-cm apply to BVH/AMC input")
     return _imu(path, output, method, threshold, target_icr, max_angle, max_segment_length, rate,
@@ -145,10 +160,11 @@ def _imu(path, output, method, threshold, target_icr, max_angle, max_segment_len
 
 
 def _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle, max_segment_length,
-              rate, asf, unit_cm, strict, progress) -> dict:
+              rate, asf, unit_cm, strict, progress, gltf_rotations="short") -> dict:
     from mocapkit.io.bvh import write_bvh
-    from mocapkit.io.gltf import write_gltf
+    from mocapkit.io.gltf import ROTATION_FORMATS
     from mocapkit.io.loaders import load_motion, unit_cm as find_unit
+    from mocapkit.jobs.gltf_out import compress_to_gltf, write_checked
     from mocapkit.pla.skeletal import compress_motion, report, verify_position_bound
 
     if max_angle is not None:
@@ -156,23 +172,41 @@ def _skeletal(path, output, method, threshold, target_icr, max_position_error, m
     if sum(x is not None for x in (threshold, target_icr, max_position_error)) != 1:
         raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-position-error")
     if output is not None and output.suffix.lower() not in (".glb", ".gltf", ".bvh"):
-        raise InvalidParameterError(f"{output}: skeletal output is .glb, .gltf or .bvh")
+        raise InvalidParameterError(f"{output}: skeletal output is .mkc, .glb, .gltf or .bvh")
+    if gltf_rotations not in ROTATION_FORMATS:
+        raise InvalidParameterError(f"--gltf-rotations {gltf_rotations!r}: one of {', '.join(ROTATION_FORMATS)}")
+    gltf_out = output is not None and output.suffix.lower() in (".glb", ".gltf")
     motion = load_motion(path, asf=asf, rate=rate, strict=strict)
     ucm, assumed = find_unit(motion, unit_cm)
     bound = None if max_position_error is None else max_position_error / ucm
     steps = None if threshold is not None else 41 if target_icr is not None else 15
+    stored = None
     with progress(f"compressing {path.name}", steps) as update, naming_target_icr(target_icr):
-        comp = compress_motion(motion, method, threshold=threshold, target_icr=target_icr,
-                               max_position_error=bound, max_segment_length=max_segment_length, progress=update)
-        if bound is not None:
-            verify_position_bound(motion, comp, bound)
+        if gltf_out and bound is not None:  # the bound is checked on the decoded file (written here)
+            comp, stored = compress_to_gltf(motion, bound, output, rotations=gltf_rotations, unit_m=ucm / 100.0,
+                                            name=path.stem, method=method, max_segment_length=max_segment_length,
+                                            progress=update)
+        else:
+            comp = compress_motion(motion, method, threshold=threshold, target_icr=target_icr,
+                                   max_position_error=bound, max_segment_length=max_segment_length, progress=update)
+            if bound is not None:
+                verify_position_bound(motion, comp, bound)
     rec = {"job": "compress", "file": str(path), "kind": "skeletal", **report(comp, ucm), "unit_cm_assumed": assumed,
            "warnings": list(motion.meta.get("warnings", [])), "outputs": []}
     if output is not None:
         if output.suffix.lower() == ".bvh":
             write_bvh(output, comp.decode(), precision=6)
-        else:
-            write_gltf(output, comp, unit_m=ucm / 100.0, name=path.stem)
+        elif stored is None:
+            stored = write_checked(motion, comp, output, rotations=gltf_rotations, unit_m=ucm / 100.0, name=path.stem)
+        if stored is not None:
+            rec["gltf_rotations"] = stored["rotations"]
+            rec["readback_max_position_error_cm"] = stored["readback_error"] * ucm
+            for key in ("compress_bound", "storage_error_bound", "storage_error_measured"):
+                if key in stored:
+                    rec[f"gltf_{key}_cm"] = stored[key] * ucm
+            if "attempts" in stored:
+                rec["gltf_attempts"] = len(stored["attempts"])
+            rec["warnings"] += stored["warnings"]
         rec["output"] = str(output)
         rec["file_bytes"] = output.stat().st_size
         rec["outputs"].append(output_entry(output, output.suffix.lower()[1:], max_position_error,
