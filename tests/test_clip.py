@@ -524,3 +524,24 @@ def test_bound_holds_on_every_shared_skeletal_file(shared_data, name, asf, u):
         assert err.max() <= bound_cm / u * (1 + 1e-9), (name, metric, bound_cm, err.max() * u)
         assert enc.report["max_shell_error"] == pytest.approx(shell.max(), rel=1e-7)
         assert enc.report["max_joint_error"] == pytest.approx(joint.max(), rel=1e-7)
+
+
+def test_batch_writes_clips_within_their_bound(tests_data, tmp_path):
+    pytest.importorskip("pyarrow")
+    src = tmp_path / "in"
+    src.mkdir()
+    for name in ("walk-meredith-60.bvh", "perception-neuron-freya-12.bvh"):
+        (src / name).write_bytes((tests_data / "bvh" / name).read_bytes())
+    out = tmp_path / "out"
+    r = run("batch", "compress", src, "--out", out, "--max-position-error", "0.2", "--skeletal-format", "mkc",
+            "--error-metric", "shell", "--jobs", "1")
+    assert r.returncode == 0, r.stderr
+    rows = [json.loads(line) for line in (out / "journal.jsonl").read_text().splitlines() if line.strip()]
+    assert len(rows) == 2
+    for name in ("walk-meredith-60", "perception-neuron-freya-12"):
+        clip = out / f"{name}.mkc"
+        m = load_motion(src / f"{name}.bvh")
+        _, se = naive_errors(m, load_motion(clip), 3.0)
+        assert se.max() <= 0.2 * (1 + 1e-9)
+    r = run("batch", "compress", src, "--out", tmp_path / "o2", "--max-position-error", "0.2", "--error-metric", "shell")
+    assert r.returncode == 2 and "--skeletal-format mkc" in r.stderr and not (tmp_path / "o2").exists()

@@ -19,7 +19,8 @@ from mocapkit.cli_options import (
     AsfOpt, AutoOpt, ColumnsOpt, DownsampleOpt, JointOpt, MarkersOpt, MaxAngleOpt, MaxLenOpt, MaxPositionErrorOpt,
     Method, MethodOpt, OrderOpt, PenaltyOpt, QuatColumnsOpt, RateOpt, ScalarLastOpt, SegMethod, SegMethodOpt,
     SegRateOpt, Solver, SolverOpt, StrictOpt, TargetIcrOpt, ThresholdOpt, TimeColumnOpt, TimeUnitOpt, TrainOpt,
-    UnitCmOpt, _within, console, err,
+    UnitCmOpt, _within, console, err, ErrorMetric, ErrorMetricOpt, GltfRotations, GltfRotationsOpt,
+    ShellDistanceOpt,
 )
 from mocapkit.errors import InvalidParameterError
 
@@ -185,6 +186,11 @@ def batch_compress(
     asf: AsfOpt = None,
     max_position_error: MaxPositionErrorOpt = None,
     unit_cm: UnitCmOpt = None,
+    skeletal_format: Annotated[str, typer.Option("--skeletal-format", help="Skeletons as .glb (keyframes, "
+                               "standard glTF) or .mkc (the compact clip; needs --max-position-error).")] = "glb",
+    error_metric: ErrorMetricOpt = ErrorMetric.joint,
+    shell_distance: ShellDistanceOpt = 3.0,
+    gltf_rotations: GltfRotationsOpt = GltfRotations.short,
     strict: StrictOpt = True,
     jobs: JobsOpt = None,
     engine: EngineOpt = "local",
@@ -192,14 +198,17 @@ def batch_compress(
     resume: ResumeOpt = False,
     db: DbOpt = None,
 ) -> None:
-    """Compress every recording: IMU points to OUT/.../<stem>.points/, skeletons to OUT/.../<stem>.glb."""
+    """Compress every recording: IMU points to OUT/.../<stem>.points/, skeletons to OUT/.../<stem>.glb
+    (or <stem>.mkc with --skeletal-format mkc)."""
     if sum(x is not None for x in (threshold, target_icr, max_angle, max_position_error)) != 1:
         raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-angle (IMU input) or "
                                     "--max-position-error (skeletal input)")
     options = {"method": method.value, "threshold": threshold, "target_icr": target_icr, "max_angle": max_angle,
                "max_segment_length": max_segment_length, "rate": rate, "time_column": time_column,
                "quaternion_columns": quaternion_columns, "scalar_last": scalar_last, "time_unit": time_unit,
-               "asf": _abs(asf), "max_position_error": max_position_error, "unit_cm": unit_cm, "strict": strict}
+               "asf": _abs(asf), "max_position_error": max_position_error, "unit_cm": unit_cm, "strict": strict,
+               "skeletal_format": skeletal_format, "error_metric": error_metric.value, "shell_distance": shell_distance,
+               "gltf_rotations": gltf_rotations.value}
     _run("compress", inputs, options, out, jobs, engine, scheduler, resume, db)
 
 

@@ -111,14 +111,14 @@ def batch_output(job: str, path: str | Path, options: dict, base: str | Path) ->
     """Where ``mocapkit batch`` writes the output of ``job`` for ``path``, with the folders it needs made:
     ``base`` is ``OUT/<relative folder>/<input stem>``. Compressed IMU points go to the folder
     ``<base>.points`` (one CSV per sensor, whatever the number of sensors), a compressed skeleton to
-    ``<base>.glb``, filtered values to ``<base>.filtered.csv`` (``.filtered.c3d`` for a C3D input);
+    ``<base>.glb`` (``<base>.mkc`` with the option ``skeletal_format="mkc"``), filtered values to ``<base>.filtered.csv`` (``.filtered.c3d`` for a C3D input);
     ``info`` and ``segment`` write nothing (their record is the result)."""
     from mocapkit.io.loaders import kind_of
 
     path, base = Path(path), Path(base)
     if job == "compress":
         if kind_of(path) == "skeletal":
-            out = base.with_name(base.name + ".glb")
+            out = base.with_name(base.name + "." + (options.get("skeletal_format") or "glb"))
         else:
             out = base.with_name(base.name + ".points")
             out.mkdir(parents=True, exist_ok=True)

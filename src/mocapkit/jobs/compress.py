@@ -41,8 +41,15 @@ METHODS = ("fastsw", "sw", "cplr", "swing", "anglesw", "optimal")
 
 
 def check_options(method: str = "fastsw", threshold=None, target_icr=None, max_angle=None,
-                  max_position_error=None) -> None:
-    """The option checks that need no file: a known method and exactly one control."""
+                  max_position_error=None, skeletal_format=None, error_metric="joint") -> None:
+    """The option checks that need no file: a known method and exactly one control; the batch's
+    skeletal output format and what it can bound."""
+    if skeletal_format not in (None, "glb", "mkc"):
+        raise InvalidParameterError(f"--skeletal-format {skeletal_format!r}: mkc or glb")
+    if error_metric not in ("joint", "shell"):
+        raise InvalidParameterError(f"--error-metric {error_metric!r}: joint or shell")
+    if error_metric == "shell" and skeletal_format == "glb":
+        raise InvalidParameterError("--error-metric shell is bounded in .mkc clips: add --skeletal-format mkc")
     if method not in METHODS:
         raise InvalidParameterError(f"--method {method!r}: one of {', '.join(METHODS)}")
     if sum(x is not None for x in (threshold, target_icr, max_angle, max_position_error)) != 1:
@@ -57,7 +64,8 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
                  asf: Path | None = None, max_position_error: float | None = None, unit_cm: float | None = None,
                  strict: bool = True, output: Path | None = None, points_stream: TextIO | None = None,
                  discard_ok: bool = True, progress: Progress = no_progress, gltf_rotations: str = "short",
-                 error_metric: str = "joint", shell_distance: float = 3.0, block_frames: int | None = None) -> dict:
+                 error_metric: str = "joint", shell_distance: float = 3.0, block_frames: int | None = None,
+                 skeletal_format: str | None = None) -> dict:
     """Compress ``path`` and return the record of ``mocapkit compress --json``.
 
     IMU input (exactly one of ``threshold``, ``target_icr``, ``max_angle``): points CSV ``time,w,x,y,z`` to
@@ -69,12 +77,17 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
     ``discard_ok=False`` refuses, before any work, a run whose points would go nowhere. A ``.mkc`` output is
     the clip format (:mod:`mocapkit.jobs.clip`): bounded by ``max_position_error`` in the ``error_metric``
     (``"joint"`` or ``"shell"`` at ``shell_distance`` cm), ``block_frames`` frames per random-access block.
+    ``skeletal_format`` (``"mkc"``/``"glb"``) is the batch's choice of a skeletal output's format (its path
+    carries it: :func:`mocapkit.jobs.batch_output`).
     """
     from mocapkit.io.loaders import kind_of
 
-    check_options(method, threshold, target_icr, max_angle, max_position_error)
+    check_options(method, threshold, target_icr, max_angle, max_position_error, skeletal_format, error_metric)
     path = Path(path)
     output = None if output is None else Path(output)
+    if skeletal_format is not None and output is not None and kind_of(path) == "skeletal" \
+            and output.suffix.lower() != "." + skeletal_format:
+        raise InvalidParameterError(f"{output}: the skeletal output format is {skeletal_format}")
     check_outputs(path, (output, "--output"), inputs=(asf,),
                   folder=path.is_dir() or (output is not None and output.is_dir()))
     if kind_of(path) == "skeletal":
@@ -93,7 +106,7 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
         if error_metric != "joint" or block_frames is not None:
             raise InvalidParameterError("--error-metric shell and --block-frames apply to a .mkc clip (-o CLIP.mkc)")
         return _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle,
-                         max_segment_length, rate, asf, unit_cm, strict, progress, gltf_rotations)
+                         max_segment_length, rate, asf, unit_cm, strict, progress, gltf_rotations, shell_distance)
     if max_position_error is not None or asf is not None or unit_cm is not None:
         raise InvalidParameterError("--max-position-error, --asf and --unit-cm apply to BVH/AMC input")
     return _imu(path, output, method, threshold, target_icr, max_angle, max_segment_length, rate,
@@ -160,7 +173,7 @@ def _imu(path, output, method, threshold, target_icr, max_angle, max_segment_len
 
 
 def _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle, max_segment_length,
-              rate, asf, unit_cm, strict, progress, gltf_rotations="short") -> dict:
+              rate, asf, unit_cm, strict, progress, gltf_rotations="short", shell_distance=3.0) -> dict:
     from mocapkit.io.bvh import write_bvh
     from mocapkit.io.gltf import ROTATION_FORMATS
     from mocapkit.io.loaders import load_motion, unit_cm as find_unit
@@ -193,6 +206,11 @@ def _skeletal(path, output, method, threshold, target_icr, max_position_error, m
                 verify_position_bound(motion, comp, bound)
     rec = {"job": "compress", "file": str(path), "kind": "skeletal", **report(comp, ucm), "unit_cm_assumed": assumed,
            "warnings": list(motion.meta.get("warnings", [])), "outputs": []}
+    from mocapkit.clip.metric import position_errors as point_errors
+
+    _, shell = point_errors(motion, comp.decode(), shell_distance / ucm)  # ACL's metric, beside the joints'
+    rec["max_shell_error_cm"], rec["mean_shell_error_cm"] = float(shell.max()) * ucm, float(shell.mean()) * ucm
+    rec["shell_distance_cm"] = shell_distance
     if output is not None:
         if output.suffix.lower() == ".bvh":
             write_bvh(output, comp.decode(), precision=6)
