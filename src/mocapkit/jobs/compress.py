@@ -192,7 +192,7 @@ def _skeletal(path, output, method, threshold, target_icr, max_position_error, m
     motion = load_motion(path, asf=asf, rate=rate, strict=strict)
     ucm, assumed = find_unit(motion, unit_cm)
     bound = None if max_position_error is None else max_position_error / ucm
-    steps = None if threshold is not None else 41 if target_icr is not None else 15
+    steps = None if threshold is not None else 41 if target_icr is not None else 15  # repair rounds: the ticks carry the total
     stored = None
     with progress(f"compressing {path.name}", steps) as update, naming_target_icr(target_icr):
         if gltf_out and bound is not None:  # the bound is checked on the decoded file (written here)

@@ -338,12 +338,15 @@ def _to_position_bound(motion, E, rs, ts, maxlen, progress=None) -> SkeletalComp
         bad = np.flatnonzero(worst > E * (1 - 1e-6))  # a margin for the rounding of written files
         keys = {k for j in bad.tolist() for k in movers(j) if level[k] < safe_level}
         rounds += 1
-        tick(min(rounds, safe_level), safe_level + 1)
+        if rounds <= safe_level:  # progress: one step a round (an estimate: rounds seldom exceed it)
+            tick(rounds, safe_level + 1)
         if not keys:
             break
         for key in keys:
             level[key] += 1
             encode(key)
+    done = min(rounds, safe_level) + 1
+    tick(done, done)  # the last step: the estimated total becomes the real one
     if err > E * (1 + BOUND_TOL):  # cannot happen if the analysis holds: report, never hide
         raise BoundViolationError(f"the safe allocation gives {err:.6g} > {E:g}")
     out.info = {"mode": "max_position_error", "bound": E, "chain_depth": H, "repair_rounds": rounds,
