@@ -4,9 +4,9 @@
    for the two clips ACL was run on, at ACL's own measured shell error (86_01: 0.0175 cm; walk-meredith:
    0.0149 cm): clip bytes, the joint and shell errors measured on the decoded bytes, and ACL's bytes from
    issue 12's side-by-side run (ACL built from source, one independent error script for both decoders).
-2. **Encoding speed**: the clip encoder against the previous whole-skeleton path (per-joint angle-bounded
-   SW with a bisection over forward kinematics, ``pla.skeletal.compress_motion``) on 86_01 at the same
-   joint bound, in this run (the ratio is what counts; the machine is shared).
+2. **Encoding speed**: the clip encoder against the glTF path (``pla.skeletal.compress_motion``: per-joint
+   angle-bounded SW; a bisection over forward kinematics until issue 12, now the same repair as the
+   clip's) on 86_01 at the same joint bound, in this run (the ratio is what counts; the machine is shared).
 3. **Decoding speed**: joint-samples (frames × joints) per second of a whole-clip decode to local poses,
    on one thread and on all cores (blocks are independent), and of ``Clip.decode`` (the checked model
    object); ``Clip.pose_at`` for random instants, cold (block not cached) and in playback order.
@@ -101,7 +101,7 @@ def main(argv=None) -> None:
         t_old = best_of(lambda: compress_motion(m, "anglesw", max_position_error=b / u), 1)
         t_new = best_of(lambda: encode_clip(m, b / u, metric="joint", shell_distance=3 / u, entropy=args.entropy), 3)
         speed[f"{b:g} cm"] = {"previous_s": t_old, "clip_s": t_new, "ratio": t_old / t_new}
-        print(f"86_01 joint<={b:g} cm: previous path {t_old:.2f} s, clip encoder {t_new:.3f} s ({t_old / t_new:.0f}x)")
+        print(f"86_01 joint<={b:g} cm: glTF path {t_old:.2f} s, clip encoder {t_new:.3f} s ({t_old / t_new:.0f}x)")
 
     # decoding speed
     js = m.n_frames * m.skeleton.n_joints
