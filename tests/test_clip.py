@@ -482,6 +482,23 @@ def test_cli_compress_info_decompress(tests_data, tmp_path):
     assert g.n_frames == m.n_frames
 
 
+def test_cli_entropy_stage_is_chosen_and_named_in_the_file(tests_data, tmp_path):
+    src = tests_data / "cmu" / "86_01_first60.amc"
+    sizes = {}
+    for entropy, codec in (("zstd", 1), ("lzma", 2)):
+        out = tmp_path / f"{entropy}.mkc"
+        r = run("compress", src, "--asf", tests_data / "cmu" / "86.asf", "-o", out, "--max-position-error", "0.01",
+                "--entropy", entropy, "--block-frames", "30")
+        assert r.returncode == 0, r.stderr
+        clip = Clip(out)
+        assert {clip.file.block(i)[0] for i in range(len(clip.file.blocks))} <= {0, codec}
+        sizes[entropy] = out.stat().st_size
+        clip.decode()
+    r = run("compress", src, "--asf", tests_data / "cmu" / "86.asf", "-o", tmp_path / "x.mkc",
+            "--max-position-error", "0.01", "--entropy", "brotli")
+    assert r.returncode == 2 and "--entropy" in r.stderr and not (tmp_path / "x.mkc").exists()
+
+
 def test_cli_refuses_clip_options_that_do_not_apply(tests_data, tmp_path):
     src = tests_data / "bvh" / "walk-meredith-60.bvh"
     r = run("compress", src, "-o", tmp_path / "w.mkc", "--target-icr", "0.1")

@@ -13,7 +13,7 @@ from rich.table import Table
 
 from mocapkit.cli_options import (  # noqa: F401 - _console, _json and the limits are part of the module's face
     MAX_FILTER_ORDER, MAX_SEGMENT_LENGTH, RATE_RANGE, UNIT_RANGE, AsfOpt, AutoOpt, ColumnsOpt, DownsampleOpt,
-    BlockFramesOpt, ErrorMetric, ErrorMetricOpt, GltfRotations, GltfRotationsOpt, JointOpt, LabelsOpt, MarkersOpt, MaxAngleOpt, MaxLenOpt, MaxPositionErrorOpt,
+    BlockFramesOpt, EntropyOpt, ErrorMetric, ErrorMetricOpt, GltfRotations, GltfRotationsOpt, JointOpt, LabelsOpt, MarkersOpt, MaxAngleOpt, MaxLenOpt, MaxPositionErrorOpt,
     Method, MethodOpt, OrderOpt,
     PenaltyOpt, QuatColumnsOpt, RateOpt, ScalarLastOpt, SegMethod, SegMethodOpt, SegRateOpt, Solver, SolverOpt,
     ShellDistanceOpt, StrictOpt, TargetIcrOpt, ThresholdOpt, TimeColumnOpt, TimeUnitOpt, TrainOpt, UnitCmOpt, _check_output,
@@ -93,6 +93,7 @@ def compress(
     error_metric: ErrorMetricOpt = ErrorMetric.joint,
     shell_distance: ShellDistanceOpt = 3.0,
     block_frames: BlockFramesOpt = None,
+    entropy: EntropyOpt = "zstd",
     strict: StrictOpt = True,
     stats_only: Annotated[
         bool, typer.Option("--stats-only", help="Only measure (print the table); write no points or clip.")
@@ -117,7 +118,7 @@ def compress(
         max_position_error=max_position_error, unit_cm=unit_cm, strict=strict, output=output,
         points_stream=None if numbers_only else sys.stdout, discard_ok=numbers_only, progress=_progress,
         gltf_rotations=gltf_rotations.value, error_metric=error_metric.value, shell_distance=shell_distance,
-        block_frames=block_frames)
+        block_frames=block_frames, entropy=entropy)
     print_warnings(rec)
     if rec["kind"] == "skeletal":
         if as_json:

@@ -12,7 +12,7 @@ from mocapkit.jobs.common import Progress, no_progress, output_entry, recording
 def compress_clip_job(path: Path, output: Path, *, max_position_error: float | None, error_metric: str = "joint",
                       shell_distance: float = 3.0, unit_cm: float | None = None, asf: Path | None = None,
                       rate: float | None = None, strict: bool = True, block_frames: int | None = None,
-                      progress: Progress = no_progress) -> dict:
+                      entropy: str = "zstd", progress: Progress = no_progress) -> dict:
     """Encode a skeletal file as a clip bounded by ``max_position_error`` cm (``error_metric`` joint
     or shell, shell points ``shell_distance`` cm from each joint); the record holds both metrics as
     measured by decoding the written bytes."""
@@ -22,6 +22,10 @@ def compress_clip_job(path: Path, output: Path, *, max_position_error: float | N
     from mocapkit.io.mkc import write_mkc
 
     check_metric(error_metric)
+    from mocapkit.io.mkc_codec import ENTROPY
+
+    if entropy not in ENTROPY:
+        raise InvalidParameterError(f"--entropy {entropy!r}: one of {', '.join(ENTROPY)}")
     if max_position_error is None:
         raise InvalidParameterError(f"{output}: a .mkc clip needs --max-position-error CM (its guarantee)")
     if not (shell_distance > 0):
@@ -31,12 +35,12 @@ def compress_clip_job(path: Path, output: Path, *, max_position_error: float | N
     blocks = DEFAULT_BLOCK_FRAMES if block_frames is None else block_frames
     with progress(f"encoding {Path(path).name}", None) as update:
         enc = encode_clip(motion, max_position_error / ucm, metric=error_metric, shell_distance=shell_distance / ucm,
-                          unit_cm=ucm, block_frames=blocks, source=Path(path).name,
+                          unit_cm=ucm, block_frames=blocks, source=Path(path).name, entropy=entropy,
                           progress=lambda done, total: update(done, total))
     write_mkc(output, enc.data)
     r = enc.report
     rec = {"job": "compress", "file": str(path), "kind": "skeletal", "method": "mkc", "mode": "max_position_error",
-           "error_metric": error_metric, "max_position_error_cm": max_position_error, "shell_distance_cm": shell_distance,
+           "error_metric": error_metric, "entropy": entropy, "max_position_error_cm": max_position_error, "shell_distance_cm": shell_distance,
            "unit_cm": ucm, "unit_cm_assumed": assumed,
            **{k: r[k] for k in ("bytes", "frames", "joints", "blocks", "keyframes", "tracks", "default_tracks",
                                 "repair_rounds", "repaired_track_blocks", "encode_s", "bytes_raw_float32", "ratio")},

@@ -65,7 +65,7 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
                  strict: bool = True, output: Path | None = None, points_stream: TextIO | None = None,
                  discard_ok: bool = True, progress: Progress = no_progress, gltf_rotations: str = "short",
                  error_metric: str = "joint", shell_distance: float = 3.0, block_frames: int | None = None,
-                 skeletal_format: str | None = None) -> dict:
+                 skeletal_format: str | None = None, entropy: str = "zstd") -> dict:
     """Compress ``path`` and return the record of ``mocapkit compress --json``.
 
     IMU input (exactly one of ``threshold``, ``target_icr``, ``max_angle``): points CSV ``time,w,x,y,z`` to
@@ -77,6 +77,7 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
     ``discard_ok=False`` refuses, before any work, a run whose points would go nowhere. A ``.mkc`` output is
     the clip format (:mod:`mocapkit.jobs.clip`): bounded by ``max_position_error`` in the ``error_metric``
     (``"joint"`` or ``"shell"`` at ``shell_distance`` cm), ``block_frames`` frames per random-access block.
+    ``entropy``: the clip's lossless stage (``"zstd"``, ``"lzma"``, ``"smallest"``).
     ``skeletal_format`` (``"mkc"``/``"glb"``) is the batch's choice of a skeletal output's format (its path
     carries it: :func:`mocapkit.jobs.batch_output`).
     """
@@ -102,9 +103,10 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
                 raise InvalidParameterError(f"{output}: a .mkc clip is bounded by --max-position-error CM only")
             return compress_clip_job(path, output, max_position_error=max_position_error, error_metric=error_metric,
                                      shell_distance=shell_distance, unit_cm=unit_cm, asf=asf, rate=rate,
-                                     strict=strict, block_frames=block_frames, progress=progress)
-        if error_metric != "joint" or block_frames is not None:
-            raise InvalidParameterError("--error-metric shell and --block-frames apply to a .mkc clip (-o CLIP.mkc)")
+                                     strict=strict, block_frames=block_frames, entropy=entropy, progress=progress)
+        if error_metric != "joint" or block_frames is not None or entropy != "zstd":
+            raise InvalidParameterError("--error-metric shell, --block-frames and --entropy apply to a .mkc clip "
+                                        "(-o CLIP.mkc)")
         return _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle,
                          max_segment_length, rate, asf, unit_cm, strict, progress, gltf_rotations, shell_distance)
     if max_position_error is not None or asf is not None or unit_cm is not None:
