@@ -22,7 +22,7 @@ from mocapkit.clip.metric import worst_errors
 from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io.loaders import load_motion, unit_cm
 from mocapkit.io.mkc import mkc_bytes
-from mocapkit.io.mkc_codec import entropy_decode, level_step, pack_block, steps_table, unpack_block
+from mocapkit.io.mkc_codec import entropy_decode, level_step, pack_block, steps_table, unpack_block, unpack_pose
 from mocapkit.rotvec import exp_map, log_map
 from mocapkit.skeleton import Motion, forward_kinematics
 
@@ -267,8 +267,18 @@ def test_garbage_payloads_are_errors_not_crashes(blob, n, T):
         vals = unpack_block(blob, n, np.full(T, 3), table, "fuzz")
     except MocapFormatError as e:
         assert "fuzz" in str(e)
+        vals = None
     else:
         assert vals.shape == (n, 3 * T) and np.all(np.isfinite(vals))
+    rot, tr = np.full((n, T + 1, 4), np.nan), np.full((n, T + 1, 3), np.nan)
+    joints, is_rot = np.arange(T, dtype=np.int64), np.arange(T) % 2 == 0
+    rest_r, rest_t = np.tile([1.0, 0, 0, 0], (T + 1, 1)), np.zeros((T + 1, 3))
+    try:  # the pose decoder fails exactly where the values decoder does, and agrees with it otherwise
+        unpack_pose(blob, n, table, joints, is_rot, rest_r, rest_t, rot, tr, "fuzz")
+    except MocapFormatError as e:
+        assert vals is None and "fuzz" in str(e)
+    else:
+        assert vals is not None and np.all(np.isfinite(rot)) and np.all(np.isfinite(tr))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -350,6 +360,20 @@ def test_pose_at_decodes_one_block_and_matches_the_full_decode(amc, monkeypatch)
     # clamped outside the clip
     r0, _ = clip.pose_at(-5.0)
     assert np.allclose(np.abs(np.einsum("jc,jc->j", r0, full.rotations[0])), 1, atol=1e-12)
+
+
+def test_pose_decoder_gives_exactly_the_values_decoder_then_exp(amc):
+    m, u = amc
+    clip = Clip("c.mkc", data=encode_clip(m, 0.05 / u, shell_distance=3 / u, block_frames=16).data)
+    rot, tr = clip.decode_arrays()
+    for i, e in enumerate(clip.file.blocks):
+        v = clip.block_values(i)
+        for k, (j, kind) in enumerate(clip.animated):
+            got = (rot if kind == "rotation" else tr)[e.first:e.first + e.frames, j]
+            want = exp_map(v[:, 3 * k:3 * k + 3]) if kind == "rotation" else v[:, 3 * k:3 * k + 3]
+            assert np.array_equal(got, want)
+    fixed = [j for j in range(m.skeleton.n_joints) if (j, "rotation") not in clip.animated]
+    assert np.array_equal(rot[:, fixed], np.broadcast_to(clip.rest_rotations[fixed], rot[:, fixed].shape))
 
 
 def test_the_committed_version_1_clip_still_decodes_within_its_bound(tests_data, walk):

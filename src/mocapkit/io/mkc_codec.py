@@ -26,6 +26,7 @@ import numba
 import numpy as np
 
 from mocapkit.errors import MocapFormatError
+from mocapkit.rotvec import exp_into
 
 CODEC_STORED, CODEC_ZSTD, CODEC_LZMA = 0, 1, 2
 _LZMA_FILTERS = [{"id": lzma.FILTER_LZMA2, "preset": 6}]  # fixed: raw LZMA2 streams carry no filter properties
@@ -125,30 +126,37 @@ def _get(buf, pos):
 
 
 @numba.njit(cache=True, nogil=True)
-def _unpack(buf, n, dims, steps_table, out):
-    """Decode a payload into ``out`` (n, ΣD); returns 0, or an error code (1 truncated/malformed,
-    2 bad count, 3 bad key position, 4 bad level, 5 trailing bytes, 6 value out of range)."""
+def _parse(buf, n, dims, steps_table):
+    """A payload's keys: ``(error, K per track, key offsets, key frames, grid integers (flat, K·D a
+    track), step per track)``; error 0, or 1 truncated/malformed, 2 bad count, 3 bad key position,
+    4 bad level, 5 trailing bytes, 6 value out of range."""
     T = dims.shape[0]
     codes = np.empty(T, np.int64)
-    Ks = np.empty(T, np.int64)
+    Ks = np.zeros(T, np.int64)
+    fo = np.zeros(T + 1, np.int64)
+    qo = np.zeros(T + 1, np.int64)
+    steps = np.empty(T)
+    fs = np.empty(0, np.int64)
+    qs = np.empty(0, np.int64)
     pos = 0
     for t in range(T):
         v, pos = _get(buf, pos)
         if v < 0:
-            return 1
+            return 1, Ks, fo, fs, qo, qs, steps
         codes[t] = v
         v, pos = _get(buf, pos)
         if v < 0:
-            return 1
+            return 1, Ks, fo, fs, qo, qs, steps
         if v < min(n, 2) or v > n:
-            return 2
+            return 2, Ks, fo, fs, qo, qs, steps
         Ks[t] = v
         if (codes[t] >> 1) >= steps_table.shape[1]:
-            return 4
-    fo = np.zeros(T + 1, np.int64)
-    for t in range(T):
+            return 4, Ks, fo, fs, qo, qs, steps
+        steps[t] = steps_table[t, codes[t] >> 1]
         fo[t + 1] = fo[t] + Ks[t]
+        qo[t + 1] = qo[t] + Ks[t] * dims[t]
     fs = np.empty(fo[T], np.int64)
+    qs = np.empty(qo[T], np.int64)
     for t in range(T):
         K = Ks[t]
         f = fs[fo[t]:fo[t + 1]]
@@ -156,21 +164,17 @@ def _unpack(buf, n, dims, steps_table, out):
         for i in range(1, K - 1):
             v, pos = _get(buf, pos)
             if v < 0:
-                return 1
+                return 1, Ks, fo, fs, qo, qs, steps
             f[i] = f[i - 1] + 1 + v
             if f[i] >= n - 1:
-                return 3
+                return 3, Ks, fo, fs, qo, qs, steps
         if K > 1:
             f[K - 1] = n - 1
-    col = 0
-    ya = np.empty(8)
-    dy = np.empty(8)
     for t in range(T):
         K, D = Ks[t], dims[t]
         f = fs[fo[t]:fo[t + 1]]
         order = (codes[t] & 1) + 1
-        step = steps_table[t, codes[t] >> 1]
-        q = np.empty((K, D), np.int64)
+        q = qs[qo[t]:qo[t + 1]].reshape(K, D)
         ratio = np.empty(K)  # the extrapolation factor of _pred, once per key
         for i in range(2, K):
             ratio[i] = (f[i] - f[i - 1]) / (f[i - 1] - f[i - 2])
@@ -178,7 +182,7 @@ def _unpack(buf, n, dims, steps_table, out):
             for i in range(K):
                 v, pos = _get(buf, pos)
                 if v < 0:
-                    return 1
+                    return 1, Ks, fo, fs, qo, qs, steps
                 r = (v >> 1) if (v & 1) == 0 else -((v + 1) >> 1)
                 if i == 0:
                     p = 0
@@ -189,13 +193,33 @@ def _unpack(buf, n, dims, steps_table, out):
                 else:  # = _pred: the same operations
                     p = q[i - 1, c] + math.floor((q[i - 1, c] - q[i - 2, c]) * ratio[i] + 0.5)
                     if abs(p) > LIMIT:
-                        return 6
+                        return 6, Ks, fo, fs, qo, qs, steps
                 if abs(r) > LIMIT:
-                    return 6
+                    return 6, Ks, fo, fs, qo, qs, steps
                 q[i, c] = p + r
                 if abs(q[i, c]) > LIMIT:
-                    return 6
-        for s in range(K - 1):  # y = y_a + (y_b − y_a)·(t − a)/(b − a), frame by frame
+                    return 6, Ks, fo, fs, qo, qs, steps
+    if pos != buf.shape[0]:
+        return 5, Ks, fo, fs, qo, qs, steps
+    return 0, Ks, fo, fs, qo, qs, steps
+
+
+@numba.njit(cache=True, nogil=True)
+def _unpack(buf, n, dims, steps_table, out):
+    """Decode a payload into ``out`` (n, ΣD): ``y = y_a + (y_b − y_a)·(t − a)/(b − a)`` between keys;
+    returns :func:`_parse`'s error code."""
+    err, Ks, fo, fs, qo, qs, steps = _parse(buf, n, dims, steps_table)
+    if err:
+        return err
+    col = 0
+    ya = np.empty(8)
+    dy = np.empty(8)
+    for t in range(dims.shape[0]):
+        K, D = Ks[t], dims[t]
+        f = fs[fo[t]:fo[t + 1]]
+        q = qs[qo[t]:qo[t + 1]].reshape(K, D)
+        step = steps[t]
+        for s in range(K - 1):
             a, b = f[s], f[s + 1]
             for c in range(D):
                 ya[c] = q[s, c] * step
@@ -208,8 +232,47 @@ def _unpack(buf, n, dims, steps_table, out):
         for c in range(D):
             out[f[K - 1], col + c] = q[K - 1, c] * step
         col += D
-    if pos != buf.shape[0]:
-        return 5
+    return 0
+
+
+@numba.njit(cache=True, nogil=True)
+def _unpack_pose(buf, n, dims, steps_table, joints, is_rot, rest_rot, rest_trans, rot, trans):
+    """Decode a payload straight into poses (``rot`` (n, J, 4), ``trans`` (n, J, 3)): the rest pose, then
+    every animated track's values — the same numbers as :func:`_unpack` — as translations or, through
+    :func:`~mocapkit.rotvec.exp_into`, rotations. Returns :func:`_parse`'s error code."""
+    err, Ks, fo, fs, qo, qs, steps = _parse(buf, n, dims, steps_table)
+    if err:
+        return err
+    J = rest_rot.shape[0]
+    for f in range(n):
+        for j in range(J):
+            for a in range(4):
+                rot[f, j, a] = rest_rot[j, a]
+            for a in range(3):
+                trans[f, j, a] = rest_trans[j, a]
+    y = np.empty(3)
+    for t in range(dims.shape[0]):
+        K = Ks[t]
+        f = fs[fo[t]:fo[t + 1]]
+        q = qs[qo[t]:qo[t + 1]].reshape(K, 3)
+        step = steps[t]
+        j = joints[t]
+        for s in range(K):  # frames f[s] .. f[s+1] − 1, and the last key's frame
+            a = f[s]
+            b = f[s + 1] if s + 1 < K else a + 1
+            for tt in range(a, b):
+                for c in range(3):
+                    ya = q[s, c] * step
+                    if tt == a:
+                        y[c] = ya
+                    else:  # the same operations as _unpack
+                        y[c] = ya + (q[s + 1, c] * step - ya) * ((tt - a) / (b - a))
+                if is_rot[t]:
+                    exp_into(y[0], y[1], y[2], rot[tt, j])
+                else:
+                    trans[tt, j, 0] = y[0]
+                    trans[tt, j, 1] = y[1]
+                    trans[tt, j, 2] = y[2]
     return 0
 
 
@@ -235,6 +298,16 @@ def steps_table(base_steps: np.ndarray) -> np.ndarray:
     b = np.asarray(base_steps, dtype=np.float64).reshape(-1, 1)
     s = np.ldexp(b, -(lv >> 1))
     return np.where(lv & 1, s * SQRT_HALF, s)
+
+
+def unpack_pose(payload: bytes, n: int, table: np.ndarray, joints: np.ndarray, is_rot: np.ndarray,
+                rest_rot: np.ndarray, rest_trans: np.ndarray, rot: np.ndarray, trans: np.ndarray, where: str) -> None:
+    """Payload (3 values a track) -> the block's poses written into ``rot`` (n, J, 4) / ``trans`` (n, J, 3)."""
+    dims = np.full(joints.shape[0], 3, dtype=np.int64)
+    code = _unpack_pose(np.frombuffer(payload, dtype=np.uint8), n, dims, table, joints, is_rot, rest_rot, rest_trans,
+                        rot, trans)
+    if code:
+        raise MocapFormatError(where, None, _ERRORS[code])
 
 
 def unpack_block(payload: bytes, n: int, dims: np.ndarray, table: np.ndarray, where: str) -> np.ndarray:

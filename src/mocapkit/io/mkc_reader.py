@@ -19,7 +19,7 @@ import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.mkc import ClipFile
-from mocapkit.io.mkc_codec import entropy_decode, steps_table, unpack_block
+from mocapkit.io.mkc_codec import entropy_decode, steps_table, unpack_block, unpack_pose
 from mocapkit.rotvec import exp_into
 from mocapkit.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
@@ -184,8 +184,10 @@ class Clip:
 
         def one(i: int) -> None:  # blocks are independent: decoded on every core (the kernels drop the GIL)
             e = self.file.blocks[i]
-            _pose(self._block_values(i), self._joints, self._is_rot, self.rest_rotations, self.rest_translations,
-                  rot[e.first:e.first + e.frames], trans[e.first:e.first + e.frames])
+            where = f"{self.path} (block {i})"
+            unpack_pose(entropy_decode(self.file.block(i), e.raw, where), e.frames, self.steps, self._joints,
+                        self._is_rot, self.rest_rotations, self.rest_translations, rot[e.first:e.first + e.frames],
+                        trans[e.first:e.first + e.frames], where)
 
         if len(self.file.blocks) == 1 or THREADS == 1:
             for i in range(len(self.file.blocks)):
