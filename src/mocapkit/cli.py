@@ -71,7 +71,7 @@ def _summary_table(records: list[dict], title: str) -> Table:
 
 @app.command()
 def compress(
-    input: Annotated[Path, typer.Argument(help="An IMU file or a folder of sensors.")],
+    input: Annotated[Path, typer.Argument(help="An IMU file or a folder of sensors; or a skeleton (BVH, AMC, MVNX, .mkc).")],
     output: Annotated[
         Optional[Path], typer.Option("--output", "-o", help="Points CSV (a folder when INPUT is a folder).")
     ] = None,
