@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import shutil
 import struct
 import subprocess
 from pathlib import Path
@@ -22,6 +21,7 @@ from mocapkit.io.loaders import load_motion
 from mocapkit.jobs import compress_job
 from mocapkit.jobs.gltf_out import every_frame, readback_error, storage_error_bound
 from mocapkit.pla.skeletal import compress_motion
+from reference_kinematics import gltf_validator, naive_positions
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -68,38 +68,8 @@ def continuous(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def naive_positions(motion) -> np.ndarray:
-    """World joint positions frame by frame, joint by joint (scipy rotations, Python loops)."""
-    sk = motion.skeleton
-    N, J = motion.n_frames, sk.n_joints
-    out = np.zeros((N, J, 3))
-    for f in range(N):
-        world = [None] * J
-        for j in range(J):
-            r = Rotation.from_quat(motion.rotations[f, j][[1, 2, 3, 0]])
-            p = sk.parents[j]
-            if p < 0:
-                world[j], out[f, j] = r, motion.translations[f, j]
-            else:
-                world[j] = world[p] * r
-                out[f, j] = out[f, p] + world[p].apply(motion.translations[f, j])
-    return out
-
-
-def validator():
-    node = shutil.which("node")
-    mods = ROOT / ".venv" / "node" / "node_modules"
-    if node is None:
-        pytest.skip("node is not installed")
-    if not (mods / "gltf-validator").is_dir():
-        if shutil.which("npm") is None:
-            pytest.skip("npm is not installed, so `make test` could not install the glTF validator")
-        pytest.fail(f"gltf-validator missing in {mods}: `make test` installs it")
-    return node, mods
-
-
 def validate(path: Path) -> dict:
-    node, mods = validator()
+    node, mods = gltf_validator()
     r = subprocess.run([node, str(ROOT / "tools" / "validate_gltf.mjs"), str(path)], capture_output=True, text=True,
                        env={**os.environ, "NODE_PATH": str(mods)}, timeout=120)
     assert r.returncode == 0, r.stderr
@@ -189,7 +159,7 @@ def test_short_file_is_smaller_and_decodes_within_the_key_angle(walk, tmp_path):
 
 @pytest.mark.parametrize("suffix", [".glb", ".gltf"])
 def test_validator_passes_short_rotations(tests_data, tmp_path, suffix):
-    validator()
+    gltf_validator()
     for name, path, asf, ucm in clips(tests_data):
         out = tmp_path / f"{name}{suffix}"
         rec = compress_job(path, asf=asf, unit_cm=ucm, max_position_error=0.5, output=out)

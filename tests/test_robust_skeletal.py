@@ -30,6 +30,7 @@ from mocapkit.pla import skeletal as pla_skeletal
 from mocapkit.pla.decode import reconstruct
 from mocapkit.pla.skeletal import compress_motion
 from mocapkit.skeleton import Skeleton, forward_kinematics
+from reference_kinematics import naive_positions
 
 DATA = Path(__file__).resolve().parent / "data"
 WALK = DATA / "bvh" / "walk-meredith-60.bvh"
@@ -102,24 +103,6 @@ def _bvh_err(tmp_path: Path, text: str, strict: bool = True) -> MocapFormatError
         read_bvh(p, strict=strict)
     assert ei.value.path == str(p) and str(ei.value).startswith(str(p))
     return ei.value
-
-
-def _naive_fk(motion) -> np.ndarray:
-    """World positions by per-frame scipy rotation products (independent of forward_kinematics)."""
-    sk = motion.skeleton
-    N, J = motion.n_frames, sk.n_joints
-    out = np.zeros((N, J, 3))
-    for n in range(N):
-        R = [None] * J
-        for j in range(J):
-            r = Rotation.from_quat(motion.rotations[n, j][[1, 2, 3, 0]])
-            p = sk.parents[j]
-            if p < 0:
-                R[j], out[n, j] = r, motion.translations[n, j]
-            else:
-                R[j] = R[p] * r
-                out[n, j] = out[n, p] + R[p].apply(motion.translations[n, j])
-    return out
 
 
 WALK_TEXT = WALK.read_text()
@@ -493,7 +476,7 @@ def test_bvh_chain_reads_writes_and_fk_matches_naive(chain_files, tmp_path):
     from mocapkit.skeleton import Motion
     msub = Motion(Skeleton(sk.names[:sub], sk.parents[:sub], sk.offsets[:sub], sk.channels[:sub]),
                   m.times, m.rotations[:, :sub], m.translations[:, :sub])
-    assert np.allclose(P[:, :sub], _naive_fk(msub), atol=1e-9, rtol=1e-12)
+    assert np.allclose(P[:, :sub], naive_positions(msub), atol=1e-9, rtol=1e-12)
 
 
 def test_skeleton_helpers_match_brute_force():

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -21,6 +20,7 @@ from mocapkit.io.bvh import parse_bvh, read_bvh, write_bvh
 from mocapkit.io.gltf import write_gltf
 from mocapkit.pla.skeletal import compress_motion, position_errors
 from mocapkit.skeleton import forward_kinematics
+from reference_kinematics import gltf_validator
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -209,21 +209,9 @@ def test_max_position_error_on_shared_files(shared_bvh):
         assert position_errors(m, comp.decode()).max() <= 1.0 * (1 + 1e-9)
 
 
-def _validator():
-    node = shutil.which("node")
-    mods = ROOT / ".venv" / "node" / "node_modules"
-    if node is None:
-        pytest.skip("node is not installed")
-    if not (mods / "gltf-validator").is_dir():
-        if shutil.which("npm") is None:
-            pytest.skip("npm is not installed, so `make test` could not install the glTF validator")
-        pytest.fail(f"gltf-validator missing in {mods}: `make test` installs it")
-    return node, mods
-
-
 @pytest.mark.parametrize("suffix", [".glb", ".gltf"])
 def test_gltf_valid_and_keyframes(tests_data, tmp_path, suffix):
-    node, mods = _validator()
+    node, mods = gltf_validator()
     m = read_bvh(tests_data / "bvh" / "perception-neuron-freya-12.bvh")
     comp = compress_motion(m, "cplr", target_icr=0.2)
     out = write_gltf(tmp_path / f"pn{suffix}", comp)
