@@ -1,0 +1,50 @@
+"""cffi builders of the two Python bindings of the C library in ``c/mkpla``: float64 and float32.
+
+Run by setuptools at ``pip install`` (``setup.py``: ``cffi_modules``); the modules land in the package
+as ``mocapkit._mkpla64`` and ``mocapkit._mkpla32``. Both compile the same ``mkpla.c``; the float32
+one with ``MKPLA_FLOAT32``. ``-ffp-contract=off``: no fused multiply-add, so the float64 build rounds
+as the Python kernels do.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from cffi import FFI
+
+#: relative to the project root (setuptools refuses absolute paths; the build runs from the root)
+LIB = Path("c") / "mkpla"
+#: the widest sample the binding encodes in C (wider signals use the numba kernels)
+MAX_DIM = 16
+
+CDEF = """
+typedef REAL mkpla_real;
+typedef struct { uint32_t index; mkpla_real t; mkpla_real v[%d]; } mkpla_point;
+typedef struct { ...; } mkpla_encoder;
+int mkpla_encoder_init(mkpla_encoder *e, int method, int dim, int quaternion, mkpla_real threshold,
+                       uint32_t maxlen, mkpla_real *buffer, size_t buffer_len);
+int mkpla_encoder_push(mkpla_encoder *e, mkpla_real t, const mkpla_real *x, mkpla_point *p);
+int mkpla_encoder_flush(mkpla_encoder *e, mkpla_point *p);
+long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_real *t, const mkpla_real *x, size_t n,
+                             int flush_at_end, uint32_t *index, mkpla_real *ts, mkpla_real *values,
+                             size_t *failed);
+""" % MAX_DIM
+
+
+def _builder(name: str, real: str, defines: list[tuple[str, str | None]]) -> FFI:
+    ffi = FFI()
+    ffi.cdef(CDEF.replace("REAL", real))
+    ffi.set_source(
+        f"mocapkit.{name}",
+        '#include "mkpla.h"',
+        sources=[(LIB / "mkpla.c").as_posix()],
+        include_dirs=[LIB.as_posix()],
+        define_macros=[("MKPLA_MAX_DIM", str(MAX_DIM)), *defines],
+        extra_compile_args=["-std=c99", "-O2", "-ffp-contract=off"],
+        libraries=["m"],
+    )
+    return ffi
+
+
+ffi64 = _builder("_mkpla64", "double", [])
+ffi32 = _builder("_mkpla32", "float", [("MKPLA_FLOAT32", "1")])
