@@ -48,8 +48,22 @@ def _best_ns(fn, n_samples: int, repeats: int = 3) -> float:
     return best / n_samples
 
 
-def _stream_ns(sig: Signal, method: str, th: float, n: int) -> float:
-    enc = Encoder(method, th, max_segment_length=MAX_SEGMENT_LENGTH)
+#: streaming modes: one push() per sample on the compiled numba kernels (the encoder before the C
+#: library), one push() per sample on C, push_many() of STREAM_BATCH samples per call on C
+STREAM_MODES = ("stream-numba", "stream", "stream-batch")
+STREAM_BATCH = 1000
+
+
+def _stream_ns(sig: Signal, method: str, th: float, n: int, mode: str = "stream") -> float:
+    enc = Encoder(method, th, max_segment_length=MAX_SEGMENT_LENGTH,
+                  engine="numba" if mode == "stream-numba" else "c")
+    if mode == "stream-batch":
+        ts, xs = sig.times[:n], sig.values[:n]
+        t0 = time.perf_counter_ns()
+        for a in range(0, n, STREAM_BATCH):
+            enc.push_many(ts[a:a + STREAM_BATCH], xs[a:a + STREAM_BATCH])
+        enc.flush()
+        return (time.perf_counter_ns() - t0) / n
     ts = sig.times[:n].tolist()
     xs = sig.values[:n].tolist()
     t0 = time.perf_counter_ns()
@@ -83,8 +97,9 @@ def run_bench(channels: int = 31, frames: int = 100_000, quick: bool = False, pr
             msl = comp.mean_segment_length
             ns_b = _best_ns(lambda: compress(s_m, method, th, MAX_SEGMENT_LENGTH, _prepared=X_m), len(s_m))
             n_stream = min(len(s_m), 5000 if not quick else 1000)
-            ns_s = min(_stream_ns(s_m, method, th, n_stream) for _ in range(2))
-            for mode, ns in (("batch", ns_b), ("stream", ns_s)):
+            timed = [("batch", ns_b)] + [(mode, min(_stream_ns(s_m, method, th, n_stream, mode) for _ in range(2)))
+                                         for mode in STREAM_MODES]
+            for mode, ns in timed:
                 rec = {"method": method, "mode": mode, "target_segment_length": L,
                        "mean_segment_length": msl, "threshold": th, "ns_per_sample": ns}
                 records.append(rec)
@@ -114,9 +129,13 @@ def run_bench(channels: int = 31, frames: int = 100_000, quick: bool = False, pr
     for L in TARGET_LENGTHS:
         tab.add_column(f"L≈{L}", justify="right")
     for method in METHODS:
-        for mode in ("batch", "stream"):
+        for mode in ("batch", *STREAM_MODES):
             tab.add_row(method, mode, *[f"{pairs[(method, L, mode)]['ns_per_sample']:.0f}"
                                         if (method, L, mode) in pairs else "–" for L in TARGET_LENGTHS])
+        gain = {L: pairs[(method, L, "stream-numba")]["ns_per_sample"] / pairs[(method, L, "stream-batch")]["ns_per_sample"]
+                for L in TARGET_LENGTHS if (method, L, "stream-batch") in pairs}
+        tab.add_row(method, "numba push / C push_many", *[f"{gain[L]:.0f}×" if L in gain else "–" for L in TARGET_LENGTHS])
+        records.append({"method": method, "mode": "stream-numba/stream-batch", "ratio_by_target_segment_length": gain})
     ratio = {L: pairs[("sw", L, "batch")]["ns_per_sample"] / pairs[("fastsw", L, "batch")]["ns_per_sample"]
              for L in TARGET_LENGTHS if ("sw", L, "batch") in pairs}
     tab.add_row("SW/fastSW", "batch", *[f"{ratio[L]:.1f}×" if L in ratio else "–" for L in TARGET_LENGTHS])

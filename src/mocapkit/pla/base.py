@@ -10,7 +10,7 @@ import numpy as np
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError
 from mocapkit.motion import Signal
-from mocapkit.pla import anglesw, cplr, fastsw, sw, swing
+from mocapkit.pla import anglesw, cplr, fastsw, native, sw, swing
 from mocapkit.quat import hemisphere_continuous
 
 #: method name -> (module, keeps original samples as points, threshold meaning)
@@ -178,10 +178,14 @@ class Encoder:
     Work per sample and memory are O(1) for fastSW, CPLR and the Swing Filter; SW and anglesw buffer
     the samples of the current segment and check them all per new sample, so both are bounded by
     ``max_segment_length`` (default 1000 for them, :data:`BOUNDED_BY_DEFAULT`: a constant input
-    cannot slow a stream down). The points equal those of :func:`compress` on the same samples, bit
-    for bit (both run the same compiled ``start``/``step``/``flush`` with the same default).
+    cannot slow a stream down). The encoder runs in C (``c/mkpla``, float64 build, through
+    :mod:`mocapkit.pla.native`) for samples of up to 16 values; wider ones run the compiled
+    ``start``/``step``/``flush`` kernels. Either way the points equal those of :func:`compress` on
+    the same samples, bit for bit (tested). :meth:`push_many` takes many samples per call: the fast
+    way to feed it.
 
-    Parameters are those of :func:`compress`, plus ``dim`` and ``kind`` of the incoming samples.
+    Parameters are those of :func:`compress`, plus ``dim`` and ``kind`` of the incoming samples and
+    ``engine``: ``"auto"`` (C where it applies), ``"c"`` (C or an error) or ``"numba"`` (the kernels).
     """
 
     def __init__(
@@ -191,8 +195,11 @@ class Encoder:
         dim: int = 4,
         kind: str = "quaternion",
         max_segment_length: int | None = None,
+        engine: str = "auto",
     ):
         self.method = check_method(method)
+        if engine not in ("auto", "c", "numba"):
+            raise InvalidParameterError(f"engine must be 'auto', 'c' or 'numba', got {engine!r}")
         if kind == "quaternion" and dim != 4:
             raise InvalidParameterError("a quaternion stream has dim 4")
         self.kind = kind
@@ -214,9 +221,17 @@ class Encoder:
         self._x = np.empty(self.dim)
         self._n = 0
         self._last_t = -math.inf
+        self._first_t = math.nan
         self._last_raw: tuple[float, ...] | None = None
         self._sign = 1.0
         self._flushed = False
+        self._native = None
+        can_c = native.available() and native.supports(self.method, self.dim, self._maxlen)
+        if engine == "c" and not can_c:
+            raise InvalidParameterError(f"the C encoder is not available for {self.method} on {self.dim}-D samples "
+                                        f"(compiled bindings present: {native.available()})")
+        if can_c and engine != "numba":
+            self._native = native.NativeEncoder(self.method, self._th, self.dim, kind == "quaternion", self._maxlen)
 
     def _grow(self) -> None:
         bt, bx = self._state[-2], self._state[-1]
@@ -247,9 +262,16 @@ class Encoder:
             raise InvalidSignalError(
                 f"sample {self._n}: time {t!r} is not after the previous time {self._last_t!r} ({what})"
             )
+        if self.kind == "quaternion" and raw[0] == 0.0 and raw[1] == 0.0 and raw[2] == 0.0 and raw[3] == 0.0:
+            raise InvalidSignalError(f"sample {self._n}: zero-norm quaternion")
+        if self._native is not None:
+            if self._n == 0:
+                self._first_t = t
+            self._n += 1
+            self._last_t = t
+            r = self._native.push(t, raw)
+            return [] if r is None else [Point(*r)]
         if self.kind == "quaternion":
-            if raw[0] == 0.0 and raw[1] == 0.0 and raw[2] == 0.0 and raw[3] == 0.0:
-                raise InvalidSignalError(f"sample {self._n}: zero-norm quaternion")
             if self._last_raw is not None:
                 p = self._last_raw
                 dot = raw[0] * p[0] + raw[1] * p[1] + raw[2] * p[2] + raw[3] * p[3]
@@ -275,11 +297,68 @@ class Encoder:
             return []
         return [Point(i - 1, prev_t, prev_raw if self._pos else tuple(st[1].tolist()))]
 
+    def push_many(self, t, X) -> native.Points:
+        """Add many samples (``t (n,)``, ``X (n, dim)``) in one call; the points they decided, as arrays.
+
+        The same checks and the same points as ``n`` calls of :meth:`push`, for a fraction of the
+        cost (one call into C per batch, the checks vectorised).
+        """
+        if self._flushed:
+            raise InvalidSignalError("push_many() after flush(): start a new Encoder")
+        t = np.asarray(t, dtype=np.float64).reshape(-1)
+        X = np.asarray(X, dtype=np.float64)
+        if X.ndim != 2 or X.shape != (t.shape[0], self.dim):
+            raise InvalidSignalError(f"sample {self._n}: expected times (n,) and values (n, {self.dim}), "
+                                     f"got {t.shape} and {X.shape}")
+        n = t.shape[0]
+        if n == 0:
+            return native.Points(np.empty(0, np.int64), np.empty(0), np.empty((0, self.dim)))
+        self._check_many(t, X)
+        if self._native is None:  # the compiled kernels, one sample at a time
+            pts = [p for i in range(n) for p in self.push(t[i], X[i])]
+            return native.Points(np.array([p.index for p in pts], dtype=np.int64),
+                                 np.array([p.time for p in pts]), np.array([p.values for p in pts]).reshape(-1, self.dim))
+        if self._n == 0:
+            self._first_t = float(t[0])
+        out = self._native.push_many(t, X)
+        self._n += n
+        self._last_t = float(t[-1])
+        return out
+
+    def _check_many(self, t: np.ndarray, X: np.ndarray) -> None:
+        """The checks of :meth:`push` on a batch; the message names the first bad sample.
+
+        A batch with a bad sample is refused whole: none of its samples is encoded.
+        """
+        first = float(t[0]) if self._n == 0 else self._first_t
+        prev = np.concatenate([[self._last_t], t[:-1]])
+        with np.errstate(over="ignore", invalid="ignore"):
+            dt = t - prev
+            far = ~np.isfinite((t - first) ** 2)
+        checks = [  # in the order push() checks one sample
+            (~(np.isfinite(t) & np.isfinite(X).all(axis=1)), lambda k: "NaN or infinite value"),
+            (far, lambda k: f"time {float(t[k])!r} is too far from the first sample to compute with"),
+            ((dt > 0) & (dt < MIN_TIME_STEP), lambda k: (
+                f"time step {float(dt[k])!r} s after {float(prev[k])!r} s is below {MIN_TIME_STEP:g} s "
+                "(slopes and squared times would overflow/underflow)")),
+            (dt <= 0, lambda k: (f"time {float(t[k])!r} is not after the previous time {float(prev[k])!r} "
+                                 f"({'duplicate' if t[k] == prev[k] else 'earlier'})")),
+        ]
+        if self.kind == "quaternion":
+            checks.append((~(X != 0.0).any(axis=1), lambda k: "zero-norm quaternion"))
+        bad = [(int(np.argmax(m)), c) for c, (m, _) in enumerate(checks) if m.any()]
+        if bad:
+            k, c = min(bad)
+            raise InvalidSignalError(f"sample {self._n + k}: {checks[c][1](k)}")
+
     def flush(self) -> list[Point]:
         """End of stream: return the final segment point (if any)."""
         if self._flushed:
             return []
         self._flushed = True
+        if self._native is not None:
+            r = self._native.flush() if self._n else None
+            return [] if r is None else [Point(*r)]
         if self._n == 0 or not self._mod.flush(*self._state):
             return []
         vals = self._last_raw if self._pos else tuple(self._state[1].tolist())
