@@ -6,7 +6,8 @@ NODE_STAMP := $(VENV)/.node-installed
 
 .PHONY: demo test bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop
 
-$(STAMP): pyproject.toml Makefile
+# the C encoders (c/mkpla) are compiled into the package by pip (setup.py: cffi); a changed C source rebuilds
+$(STAMP): pyproject.toml Makefile setup.py c/mkpla_cffi.py $(wildcard c/mkpla/*.c c/mkpla/*.h)
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
 	$(BIN)/python -m pip install -q -e '.[test]'
