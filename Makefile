@@ -66,5 +66,5 @@ pg-stop:
 	tools/pg_test_server.sh stop
 
 clean:
-	rm -rf $(VENV) build src/*.egg-info
+	rm -rf $(VENV) build src/*.egg-info src/mocapkit/_mkpla*.so
 	find src -name '*.nbi' -delete -o -name '*.nbc' -delete

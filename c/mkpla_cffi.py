@@ -28,6 +28,16 @@ int mkpla_encoder_flush(mkpla_encoder *e, mkpla_point *p);
 long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_real *t, const mkpla_real *x, size_t n,
                              int flush_at_end, uint32_t *index, mkpla_real *ts, mkpla_real *values,
                              size_t *failed);
+typedef struct { ...; } mkp_packetiser;
+mkpla_real mkp_delta(int bits);
+int mkp_quantise(const mkpla_real *q, int bits, uint16_t *code);
+void mkp_dequantise(const uint16_t *code, int bits, mkpla_real *q);
+uint16_t mkp_crc16(const uint8_t *data, size_t n);
+int mkp_init(mkp_packetiser *s, uint8_t sensor, mkpla_real max_angle_rad, int bits, int packet_bytes,
+             uint32_t maxlen, mkpla_real *buffer, size_t buffer_len);
+long mkp_push_many(mkp_packetiser *s, const mkpla_real *q, size_t n, int flush_at_end, uint8_t *out, size_t cap,
+                   size_t *used, uint32_t *packet_at, uint32_t *point_tick, uint16_t *point_code, size_t *points,
+                   size_t *failed);
 """ % MAX_DIM
 
 
@@ -36,8 +46,8 @@ def _builder(name: str, real: str, defines: list[tuple[str, str | None]]) -> FFI
     ffi.cdef(CDEF.replace("REAL", real))
     ffi.set_source(
         f"mocapkit.{name}",
-        '#include "mkpla.h"',
-        sources=[(LIB / "mkpla.c").as_posix()],
+        '#include "mkpla.h"\n#include "mkp.h"',
+        sources=[(LIB / "mkpla.c").as_posix(), (LIB / "mkp.c").as_posix()],
         include_dirs=[LIB.as_posix()],
         define_macros=[("MKPLA_MAX_DIM", str(MAX_DIM)), *defines],
         extra_compile_args=["-std=c99", "-O2", "-ffp-contract=off"],

@@ -94,6 +94,12 @@ def compress(
     shell_distance: ShellDistanceOpt = 3.0,
     block_frames: BlockFramesOpt = None,
     entropy: EntropyOpt = "zstd",
+    packet_bits: Annotated[Optional[int], typer.Option(
+        "--packet-bits", help=".mkp packets: bits per quaternion component, 6..16 (default: the fewest whose "
+                              "quantisation stays within 15% of --max-angle).", callback=_within(6, 16))] = None,
+    packet_bytes: Annotated[int, typer.Option(
+        "--packet-bytes", help=".mkp packets: the radio payload, 16..255 bytes (20: BLE 4 ATT).",
+        callback=_within(16, 255))] = 20,
     strict: StrictOpt = True,
     stats_only: Annotated[
         bool, typer.Option("--stats-only", help="Only measure (print the table); write no points or clip.")
@@ -101,7 +107,8 @@ def compress(
 ) -> None:
     """Compress orientation streams (IMU files, sensor folders) or whole skeletons (BVH, AMC).
 
-    IMU input: segment points as CSV time,w,x,y,z (to -o, or to stdout for one file). Skeletal input:
+    IMU input: segment points as CSV time,w,x,y,z (to -o, or to stdout for one file), or radio packets of
+    every sensor with -o OUT.mkp (--max-angle bounds the decode end to end, quantisation included). Skeletal input:
     a .mkc clip (the smallest; bounded by --max-position-error in the --error-metric, checked on the
     written bytes), keyframes as glTF (.glb/.gltf) or the decoded full-rate motion as .bvh (-o). Without -o, a result
     that cannot go to stdout is refused before any work unless --json or --stats-only asks for the numbers.
@@ -111,6 +118,20 @@ def compress(
     if stats_only and output is not None:
         raise InvalidParameterError("--stats-only writes nothing: drop it or drop --output")
     numbers_only = as_json or stats_only
+    if output is not None and output.suffix.lower() == ".mkp":  # radio packets (docs/mkp.md)
+        from mocapkit.cli_packets import print_compress
+        from mocapkit.jobs.packets import compress_packets_job
+
+        rec = compress_packets_job(
+            input, output, max_angle=max_angle, method=method.value, threshold=threshold, target_icr=target_icr,
+            packet_bits=packet_bits, packet_bytes=packet_bytes, max_segment_length=max_segment_length, rate=rate,
+            time_column=time_column, quaternion_columns=quaternion_columns, scalar_last=scalar_last,
+            time_unit=time_unit, progress=_progress)
+        print_warnings(rec)
+        print_compress(rec, input, as_json)
+        return
+    if packet_bits is not None or packet_bytes != 20:
+        raise InvalidParameterError("--packet-bits and --packet-bytes apply to a packet stream (-o OUT.mkp)")
     rec = compress_job(
         input, method=method.value, threshold=threshold, target_icr=target_icr, max_angle=max_angle,
         max_segment_length=max_segment_length, rate=rate, time_column=time_column,
@@ -402,7 +423,7 @@ def filter_eval(
 
 @app.command()
 def decompress(
-    points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z), or a compressed clip (.mkc, .glb/.gltf).")],
+    points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z), radio packets (.mkp), or a compressed clip (.mkc, .glb/.gltf).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="Reconstructed CSV (.bvh for a clip).")],
     times_from: Annotated[
         Optional[Path], typer.Option("--times-from", help="Decode at the timestamps of this original file.")
@@ -428,6 +449,12 @@ def decompress(
     if points.suffix.lower() in (".glb", ".gltf"):
         _decompress_clip(points, output, times_from, rate)
         return
+    if points.suffix.lower() == ".mkp":  # radio packets (docs/mkp.md)
+        from mocapkit.cli_packets import decompress as decompress_packets
+
+        decompress_packets(points, output, times_from, rate, _columns(time_column, quaternion_columns, scalar_last,
+                                                                     time_unit))
+        return
     if points.suffix.lower() == ".mkc":
         from mocapkit.jobs.clip import decompress_clip_job
 
@@ -449,6 +476,9 @@ def decompress(
         raise InvalidParameterError("give --times-from ORIGINAL or --rate HZ")
     pts = read_imu_csv(points)
     _warn_signals({"points": pts})
+    from mocapkit.jobs.packets import refuse_gaps
+
+    refuse_gaps(points)  # points of a .mkp stream with lost packets: never bridged
     if times_from is not None:
         originals = load_signals(times_from, rate=rate,
                                  **_columns(time_column, quaternion_columns, scalar_last, time_unit))
@@ -509,7 +539,7 @@ def stream(
     time_unit: TimeUnitOpt = None,
 ) -> None:
     """Read IMU CSV rows from stdin; write each segment point to stdout the moment it is decided."""
-    from mocapkit.io.streamcsv import iter_samples
+    from mocapkit.jobs.stream import run_stream
     from mocapkit.pla import Encoder
 
     if (threshold is None) == (max_angle is None):
@@ -525,23 +555,18 @@ def stream(
     out = sys.stdout
 
     def emit(points) -> None:
-        for p in points:
-            row = (p.time, *p.values)
+        for t, vals in zip(points.times.tolist(), points.values.tolist()):
+            row = (t, *vals)
             if not all(math.isfinite(v) for v in row):  # an extrapolated point (cplr, swing) out of range
-                raise MocapError(f"<stdin>: the segment point at time {p.time!r} is not finite {row!r}; "
+                raise MocapError(f"<stdin>: the segment point at time {t!r} is not finite {tuple(row)!r}; "
                                  "the input's values or time steps are out of floating-point range for this method")
             out.write(",".join(repr(float(v)) for v in row) + "\n")
-        if points:
+        if len(points.times):
             out.flush()
 
     out.write("time,w,x,y,z\n")
     out.flush()
-    try:
-        for _lineno, t, q in iter_samples(sys.stdin, "<stdin>", rate,
-                                            **_columns(time_column, quaternion_columns, scalar_last, time_unit)):
-            emit(enc.push(t, q))
-    finally:
-        emit(enc.flush())
+    run_stream(sys.stdin, enc, emit, "<stdin>", rate, **_columns(time_column, quaternion_columns, scalar_last, time_unit))
 
 
 @app.command()

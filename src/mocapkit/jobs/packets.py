@@ -1,0 +1,264 @@
+"""The ``.mkp`` radio packet jobs: ``mocapkit compress IMU --max-angle DEG -o OUT.mkp`` (the C packetiser
+over every sensor, the written file decoded and its bound checked on every sample) and
+``mocapkit decompress OUT.mkp`` (the points, or the full-rate SLERP decode, never across a lost packet)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from mocapkit.errors import BoundViolationError, InvalidParameterError
+from mocapkit.jobs.common import Progress, check_outputs, imu_columns, no_progress, output_entry, recording
+
+#: bytes per sample of the raw stream a packet stream is compared with: four float32
+RAW_SAMPLE_BYTES = 16
+#: the rate of the second raw reference stream (the issue's 100 Hz)
+RAW_REFERENCE_HZ = 100.0
+#: points CSV columns (decompress without --times-from / --rate)
+POINT_COLUMNS = ("time", "w", "x", "y", "z", "tick", "gap_before")
+
+
+def nominal_rate(sig) -> float:
+    """The sensor's sample rate: the file's stated rate, else one over the median sample step (a log's
+    dropped samples do not lower it)."""
+    r = sig.meta.get("rate")
+    if r is not None and math.isfinite(float(r)) and float(r) > 0:
+        return float(r)
+    if len(sig) > 1:
+        return float(1.0 / np.median(np.diff(sig.times)))
+    return 1.0
+
+
+def decode_at(ticks: np.ndarray, values: np.ndarray, gap_before: np.ndarray, u: np.ndarray):
+    """SLERP decode of one sensor's points at (fractional) ticks ``u`` (increasing), never across a gap.
+
+    Returns ``(keep, quaternions)``: ``keep`` marks the ``u`` that lie on a point or between two
+    consecutive points with no lost packet between them; the quaternions are those samples' decode.
+    """
+    from mocapkit.pla.decode import reconstruct_points
+
+    u = np.asarray(u, dtype=np.float64)
+    keep = np.zeros(u.shape[0], dtype=bool)
+    out = []
+    if len(ticks) == 0:
+        return keep, np.empty((0, 4))
+    starts = np.flatnonzero(gap_before).tolist()
+    bounds = sorted(set([0] + starts + [len(ticks)]))
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        lo, hi = float(ticks[a]), float(ticks[b - 1])
+        i0, i1 = np.searchsorted(u, lo, "left"), np.searchsorted(u, hi, "right")
+        if i1 > i0:
+            keep[i0:i1] = True
+            out.append(reconstruct_points(ticks[a:b].astype(np.float64), values[a:b], u[i0:i1], "quaternion"))
+    return keep, (np.concatenate(out) if out else np.empty((0, 4)))
+
+
+def refuse_gaps(points: Path) -> None:
+    """Refuse a points CSV written from a ``.mkp`` stream whose ``gap_before`` column marks a lost packet:
+    a SLERP decode of the CSV would bridge the gap (decompress the ``.mkp`` itself, which leaves it out)."""
+    import csv
+
+    from mocapkit.io.atomic import is_device_or_pipe
+
+    if is_device_or_pipe(points):  # read once already: a pipe cannot be read again
+        return
+    try:
+        with open(points, newline="", encoding="utf-8", errors="replace") as fh:
+            rows = csv.reader(fh)
+            head = next(rows, [])
+            if "gap_before" not in head:
+                return
+            col = head.index("gap_before")
+            for line, row in enumerate(rows, start=2):
+                if len(row) > col and row[col].strip() not in ("", "0"):
+                    raise InvalidParameterError(
+                        f"{points}:{line}: this point follows a lost packet (gap_before = {row[col].strip()}); a "
+                        "decode of the points would bridge the gap: decompress the .mkp file itself")
+    except (OSError, csv.Error):
+        return  # the reader has already read it; nothing more to say here
+
+
+def compress_packets_job(path: Path, output: Path, *, max_angle: float | None, method: str = "anglesw",
+                         threshold: float | None = None, target_icr: float | None = None, packet_bits: int | None = None,
+                         packet_bytes: int = 20, max_segment_length: int | None = None, rate: float | None = None,
+                         time_column: str | None = None, quaternion_columns: str | None = None,
+                         scalar_last: bool = False, time_unit: str | None = None, precision: str = "float64",
+                         progress: Progress = no_progress) -> dict:
+    """Every sensor of the IMU input ``path`` through the C packetiser into one ``.mkp`` file.
+
+    The packets of all sensors are stored in the order a receiver would get them (by the time of the
+    sample whose push sent them). The written file is read back and decoded at every sample: a
+    sample further than ``max_angle`` from its original is a :class:`BoundViolationError` (a bug).
+    """
+    from mocapkit.io import load_signals
+    from mocapkit.io.atomic import is_device_or_pipe
+    from mocapkit.io.mkp import Header, Sensor, delta_bound, mkp_bytes, read_mkp, write_mkp
+    from mocapkit.pla.packets import DEFAULT_MAXLEN, check_packet_options, default_bits, packetise
+    from mocapkit.quat import angular_distance
+
+    path, output = Path(path), Path(output)
+    if max_angle is None or threshold is not None or target_icr is not None:
+        raise InvalidParameterError(f"{output}: a .mkp packet stream is bounded by --max-angle DEG only")
+    if method not in ("anglesw", "fastsw"):  # fastsw: the command's default, not a choice
+        raise InvalidParameterError(f"{output}: a .mkp packet stream is made by the angle-bounded encoder "
+                                    f"(anglesw), not {method}")
+    if not (math.isfinite(max_angle) and max_angle > 0):
+        raise InvalidParameterError(f"--max-angle {max_angle!r}: a positive number of degrees")
+    bits = default_bits(max_angle) if packet_bits is None else packet_bits
+    check_packet_options(max_angle, bits, packet_bytes)
+    maxlen = DEFAULT_MAXLEN if max_segment_length is None else max_segment_length
+    from mocapkit.io.loaders import kind_of
+
+    if kind_of(path) != "imu":
+        raise InvalidParameterError(f"{output}: a .mkp packet stream holds IMU orientation streams; {path} is not one")
+    check_outputs(path, (output, "--output"))
+    if output.is_dir():
+        raise InvalidParameterError(f"{output}: a packet stream is one file (.mkp), not a folder")
+    signals = load_signals(path, rate=rate, **imu_columns(time_column, quaternion_columns, scalar_last, time_unit))
+    if len(signals) > 255:
+        raise InvalidParameterError(f"{path}: {len(signals)} sensors; a packet file holds at most 255")
+    sensors, sent, per = [], [], []
+    with progress(f"packetising {path.name}", len(signals)) as update:
+        for sid, (name, sig) in enumerate(signals.items()):
+            if sig.kind != "quaternion":
+                raise InvalidParameterError(f"{sig.source}: {name} is not a quaternion signal")
+            r = nominal_rate(sig)
+            sensors.append(Sensor(name, r, float(sig.times[0])))
+            pk = packetise(sig.values, max_angle, bits=bits, packet_bytes=packet_bytes, max_segment_length=maxlen,
+                           sensor=sid, precision=precision)
+            at = sig.times[np.minimum(pk.sent_at, len(sig) - 1)]
+            sent.extend((float(t), sid, k, p) for k, (t, p) in enumerate(zip(at, pk.packets)))
+            per.append(pk)
+            update(sid + 1)
+    sent.sort(key=lambda x: (x[0], x[1], x[2]))
+    header = Header(bits, packet_bytes, float(max_angle), maxlen, tuple(sensors))
+    data = mkp_bytes(header, [p for *_, p in sent])
+    write_mkp(output, data)
+    back = read_mkp(output) if not is_device_or_pipe(output) else read_mkp(output, data=data)
+    records = []
+    for (name, sig), pk in zip(signals.items(), per):
+        s = back.streams[name]
+        if not (np.array_equal(s.ticks, pk.ticks) and np.array_equal(s.codes, pk.codes)) or back.lost_packets:
+            raise BoundViolationError(f"{output}: {name}: the file does not give back the points the packetiser sent")
+        keep, dec = decode_at(s.ticks, s.values, s.gap_before, np.arange(len(sig), dtype=np.float64))
+        err = np.degrees(angular_distance(dec, sig.values[keep]))
+        if not keep.all() or (len(err) and err.max() > max_angle):
+            raise BoundViolationError(f"{output}: {name}: a decoded sample is {float(err.max()):.6g} degrees from the "
+                                      f"original, more than --max-angle {max_angle:g} (a bug: please report it)")
+        nbytes = sum(len(p) for p in pk.packets)
+        n = len(sig)
+        bps = nbytes * sensors[len(records)].rate / n
+        raw = RAW_SAMPLE_BYTES * sensors[len(records)].rate
+        records.append({
+            "name": name, "source": sig.source, "method": "anglesw", "mode": "max_angle", "target": max_angle,
+            "threshold": math.degrees(math.radians(max_angle) - delta_bound(bits) - 1e-6),
+            "max_segment_length": maxlen, "n_samples": n, "n_points": len(pk.ticks),
+            "icr": len(pk.ticks) / n, "mean_segment_length": (n - 1) / max(len(pk.ticks) - 1, 1),
+            "aad_deg": float(err.mean()), "max_deg": float(err.max()), "std_deg": float(err.std()),
+            "packets": len(pk.packets), "bytes": nbytes, "rate_hz": sensors[len(records)].rate,
+            "bytes_per_s": bps, "raw_float32_bytes_per_s": raw, "ratio": nbytes / (RAW_SAMPLE_BYTES * n),
+            "ratio_100hz": bps / (RAW_SAMPLE_BYTES * RAW_REFERENCE_HZ),
+        })
+    warnings = []
+    for sig in signals.values():
+        for w in sig.meta.get("warnings", []):
+            if f"{sig.source}: {w}" not in warnings:
+                warnings.append(f"{sig.source}: {w}")
+    skipped = sorted({f for s in signals.values() for f in s.meta.get("skipped_files", [])})
+    return {"job": "compress", "file": str(path), "kind": "imu", "method": "mkp", "mode": "max_angle",
+            "target": max_angle, "packet_bits": bits, "packet_bytes": packet_bytes,
+            "quantisation_bound_deg": math.degrees(delta_bound(bits)), "precision": precision,
+            "bytes": len(data), "signals": records, "warnings": warnings, "skipped_files": skipped,
+            "outputs": [output_entry(output, "mkp", max_angle, "deg")], "recording": recording(signals, path)}
+
+
+def _originals(times_from: Path, names: list[str], rate, columns) -> dict:
+    from mocapkit.io import load_signals
+
+    orig = load_signals(times_from, rate=rate, **columns)
+    if len(names) == 1 and len(orig) == 1:
+        return {names[0]: next(iter(orig.values()))}
+    missing = [n for n in names if n not in orig]
+    if missing:
+        raise InvalidParameterError(f"{times_from} has no sensor {', '.join(missing[:6])} (it holds "
+                                    f"{', '.join(list(orig)[:6])})")
+    return {n: orig[n] for n in names}
+
+
+def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None = None, rate: float | None = None,
+                           time_column: str | None = None, quaternion_columns: str | None = None,
+                           scalar_last: bool = False, time_unit: str | None = None) -> dict:
+    """Read a ``.mkp`` file back: the points as CSV ``time,w,x,y,z,tick,gap_before`` (no ``times_from``
+    nor ``rate``), or the full-rate SLERP decode ``time,w,x,y,z`` at the ticks of ``times_from``'s samples
+    or on a ``rate`` Hz grid. Samples between points separated by a lost packet are left out (counted
+    in ``samples_left_out``), never bridged. Several sensors go to a folder (``output``/NAME.csv)."""
+    from mocapkit.io import write_signal_csv
+    from mocapkit.io.atomic import atomic_write_text, is_device_or_pipe
+    from mocapkit.io.imucsv import format_row
+    from mocapkit.io.mkp import read_mkp
+
+    path, output = Path(path), Path(output)
+    pf = read_mkp(path)
+    names = list(pf.streams)
+    folder = len(names) > 1 or output.is_dir()
+    if folder and output.exists() and not output.is_dir():
+        raise InvalidParameterError(f"{output}: {path} holds {len(names)} sensors, so --output must be a folder")
+    if folder and output.suffix.lower() == ".csv":
+        raise InvalidParameterError(f"{output}: {path} holds {len(names)} sensors, so --output is a folder "
+                                    "(one CSV per sensor), not a .csv file")
+    if not folder and output.suffix.lower() != ".csv" and not is_device_or_pipe(output):
+        raise InvalidParameterError(f"{output}: decoded points and samples are written as .csv")
+    originals = None
+    if times_from is not None:
+        originals = _originals(times_from, names, rate, imu_columns(time_column, quaternion_columns, scalar_last,
+                                                                    time_unit))
+    records, outputs, written = [], [], {}
+    for name, s in pf.streams.items():
+        rec = {"name": name, "points": len(s.ticks), "packets": s.packets, "lost_sequence_numbers": s.lost,
+               "ended": s.ended, "gaps": int(s.gap_before.sum()), "samples_left_out": 0}
+        r, t0 = s.sensor.rate, s.sensor.t0
+        if len(s.ticks) == 0:
+            raise InvalidParameterError(f"{path}: no point of sensor {name} arrived")
+        if originals is None and rate is None:
+            rows = [format_row(t0 + int(k) / r, v) + f",{int(k)},{int(g)}"
+                    for k, v, g in zip(s.ticks.tolist(), s.values.tolist(), s.gap_before.tolist())]
+            written[name] = ("points", ",".join(POINT_COLUMNS) + "\n" + "".join(x + "\n" for x in rows))
+            records.append(rec)
+            continue
+        if originals is not None:
+            orig = originals[name]
+            n = len(orig)
+            if s.samples is not None and s.samples != n:
+                raise InvalidParameterError(f"{times_from}: {name} has {n} samples, the packet stream {s.samples}")
+            if s.ticks[-1] >= n:
+                raise InvalidParameterError(f"{times_from}: {name} has {n} samples, the packet stream reaches "
+                                            f"tick {int(s.ticks[-1])}")
+            u = np.arange(n, dtype=np.float64)
+            times = orig.times
+        else:
+            span = (float(s.ticks[-1]) - float(s.ticks[0])) / r
+            m = math.floor(span * rate + 1e-9) + 1
+            if m > 50_000_000:
+                raise InvalidParameterError(f"--rate {rate:g} over {span:g} s gives {m} samples; too many")
+            times = t0 + float(s.ticks[0]) / r + np.arange(m) / rate
+            u = (times - t0) * r
+        keep, vals = decode_at(s.ticks, s.values, s.gap_before, u)
+        rec["samples"] = int(keep.sum())
+        rec["samples_left_out"] = int((~keep).sum())
+        written[name] = ("samples", times[keep], vals)
+        records.append(rec)
+    if folder:
+        output.mkdir(exist_ok=True)
+    for name, what in written.items():
+        dest = output / f"{name}.csv" if folder else output
+        if what[0] == "points":
+            atomic_write_text(dest, what[1])
+        else:
+            write_signal_csv(dest, what[1], what[2])
+        outputs.append(output_entry(dest, "csv"))
+    return {"job": "decompress", "file": str(path), "kind": "imu", "mode": "points" if originals is None and rate is None
+            else "samples", "bits": pf.header.bits, "max_angle": pf.header.max_angle_deg,
+            "lost_packets": pf.lost_packets, "damaged_packets": len(pf.damaged), "losses": pf.losses(),
+            "sensors": records, "outputs": outputs, "warnings": []}
