@@ -575,3 +575,24 @@ def _split(data: bytes, f) -> list[bytes]:
         out.append(data[pos + 1:pos + 1 + n])
         pos += 1 + n
     return out
+
+
+def test_info_reports_settings_points_and_losses(excerpt, two_sensors, tmp_path):
+    from mocapkit.jobs.info import info_job
+
+    per, packets, who = two_sensors
+    whole = tmp_path / "whole.mkp"
+    whole.write_bytes(_file(packets, 11, 1.0, names=tuple(per), rates=(50.0, 50.0)))
+    rec = info_job(whole)
+    assert rec["kind"] == "packets" and rec["bits"] == 11 and rec["max_angle_deg"] == 1.0
+    assert rec["lost_packets"] == 0 and rec["warnings"] == []
+    for name, p in per.items():  # the points each stream sent, and its samples (last tick + 1)
+        s = rec["sensors"][name]
+        assert s["packets"] == len(p.packets) and s["points"] == len(p.ticks) and s["samples"] == len(excerpt[name])
+    j = len(packets) // 3
+    lossy = tmp_path / "lossy.mkp"
+    lossy.write_bytes(_file(packets[:j] + packets[j + 1:], 11, 1.0, names=tuple(per), rates=(50.0, 50.0)))
+    rec = info_job(lossy)
+    sensor, seq = who[j]
+    assert rec["lost_packets"] == 1 and rec["sensors"][sensor]["lost_sequence_numbers"] == 1
+    assert any(f"sequence number {seq}" in w for w in rec["warnings"])

@@ -19,6 +19,8 @@ def info_job(path: Path, *, asf: Path | None = None, rate: float | None = None, 
     from mocapkit.jobs.clip import clip_fields
 
     path = Path(path)
+    if path.suffix.lower() == ".mkp":
+        return {"job": "info", **packet_fields(path), "recording": None, "outputs": []}
     kind = kind_of(path)
     with progress(f"reading {path.name}", None):
         if kind == "skeletal":
@@ -82,3 +84,23 @@ def info_job(path: Path, *, asf: Path | None = None, rate: float | None = None, 
             obj = sigs
     rec["recording"] = recording(obj, path)
     return {"job": "info", **rec, "outputs": []}
+
+
+def packet_fields(path: Path) -> dict:
+    """``info`` of a radio packet stream (.mkp): its settings, and per sensor what arrived and what was lost."""
+    from mocapkit.io.mkp import read_mkp
+
+    pf = read_mkp(path)
+    h = pf.header
+    return {
+        "file": str(path), "kind": "packets", "format": "mkp", "bytes": path.stat().st_size,
+        "max_angle_deg": h.max_angle_deg, "bits": h.bits, "packet_bytes": h.packet_bytes,
+        "max_segment_length": h.max_segment_length,
+        "sensors": {
+            name: {"rate_hz": s.sensor.rate, "t0_s": s.sensor.t0, "packets": s.packets, "points": len(s.ticks),
+                   "samples": s.samples, "lost_sequence_numbers": len(s.lost), "ended": s.ended}
+            for name, s in pf.streams.items()
+        },
+        "damaged_packets": len(pf.damaged), "lost_packets": pf.lost_packets,
+        "warnings": pf.losses(),
+    }
