@@ -332,3 +332,33 @@ def test_readme_c_example_compiles_and_runs(tmp_path):
     out = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
     idx = [int(x) for x in out]
     assert idx[0] == 0 and idx[-1] == 99 and idx == sorted(idx) and len(idx) >= 3
+
+
+def _random_case(rng):
+    n = int(rng.integers(2, 400))
+    dim = int(rng.choice([1, 3, 4, 4, 4, 9]))
+    dt = rng.choice([rng.uniform(1e-4, 0.1, n), np.full(n, 0.01), np.where(rng.random(n) < 0.05, 2.0, 0.01)])
+    t = rng.uniform(-1e3, 1e3) + np.cumsum(dt)
+    X = np.cumsum(rng.normal(0, rng.choice([1e-6, 1e-3, 0.1]), (n, dim)), axis=0) + rng.normal(0, 1, dim)
+    hold = rng.random(n) < 0.3                              # still stretches (repeated samples)
+    for i in np.flatnonzero(hold)[1:] if hold.any() else []:
+        X[i] = X[i - 1]
+    return t, X
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_float64_equals_python_on_random_signals(seed):
+    """Irregular times, gaps, still stretches, 1..9 dimensions, random thresholds and maximum lengths."""
+    rng = np.random.default_rng(1000 + seed)
+    t, X = _random_case(rng)
+    dim = X.shape[1]
+    kind = "quaternion" if dim == 4 else "vector"
+    sig = Signal(t, X, kind=kind)
+    for method in ("fastsw", "sw", "cplr", "swing") + (("anglesw",) if kind == "quaternion" else ()):
+        th = float(rng.choice([0.0, 10 ** rng.uniform(-8, 1)])) if method != "anglesw" else float(rng.uniform(0, 10))
+        maxlen = None if rng.random() < 0.4 else int(rng.integers(1, 60))
+        c = compress(sig, method, th, maxlen)
+        k_th = math.radians(th) if method == "anglesw" else th
+        r = encode(t, X, method, k_th, c.max_segment_length or 0, kind == "quaternion")
+        assert np.array_equal(c.indices, r.indices), (method, th, maxlen)
+        assert np.array_equal(c.values, r.values), (method, th, maxlen)
