@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 
-.PHONY: demo test bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop
+.PHONY: demo test bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
 
 # the C encoders (c/mkpla) are compiled into the package by pip (setup.py: cffi); a changed C source rebuilds
 $(STAMP): pyproject.toml Makefile setup.py c/mkpla_cffi.py $(wildcard c/mkpla/*.c c/mkpla/*.h)
@@ -46,6 +46,13 @@ bench-batch: $(STAMP)
 # needs ../shared/data; writes docs/clip_bench.json
 bench-clip: $(STAMP)
 	$(BIN)/python benchmarks/clip_bench.py --json docs/clip_bench.json
+
+# the C encoders (c/mkpla) on a Cortex-M4 under QEMU (mps2-an386): points equal to the host float32
+# build on ../shared/data's IMU recordings, executed instructions per sample, code size, RAM (-O3 as the
+# fastSW paper; -O2 counted on the synthetic signals); needs arm-none-eabi-gcc, newlib, qemu-system-arm;
+# writes docs/mcu.json
+mcu: $(STAMP)
+	$(BIN)/python tools/mcu_measure.py --opt=-O3 --compare-opt=-O2 --json docs/mcu.json
 
 # issue 10's adversarial trial (tools/trial.py): mutated files of every format, odd output paths, extreme
 # options, kill -9, huge claims; prints category x outcome counts, writes $(FUZZ_OUT)/report.md and .json,

@@ -95,7 +95,8 @@ int mkpla_fastsw_init(mkpla_fastsw *s, int dim, mkpla_real threshold, uint32_t m
 }
 
 /* Algorithm 1, PROCESS_SAMPLE, for a dimension D the compiler may know (inlined twice below) */
-static inline int fastsw_step(mkpla_fastsw *s, mkpla_real t, const mkpla_real *x, mkpla_point *p, const int D)
+static inline int fastsw_step(mkpla_fastsw *s, mkpla_real t, const mkpla_real *restrict x, mkpla_point *p,
+                              const int D)
 {
     int d;
     uint32_t n = s->n + 1;                       /* line 2 */
@@ -205,14 +206,14 @@ static inline int sw_step(mkpla_sw *s, mkpla_real t, const mkpla_real *x, mkpla_
         for (d = 0; d < D; d++) {
             mkpla_real beta = (x[d] - s->av[d]) / tn;   /* slope, Eq. 4 */
             for (j = 0; j + 1 < n; j++) {                /* Eq. 5 over s_1..s_{n-1} */
-                mkpla_real r = (s->bx[j * D + d] - s->av[d]) - beta * (s->bt[j] - s->ta);
+                mkpla_real r = s->bx[j * D + d] - beta * s->bt[j]; /* buffered relative to the anchor */
                 ssr += r * r;
             }
         }
         if (ssr <= s->th) {
-            s->bt[n - 1] = t;
+            s->bt[n - 1] = t - s->ta;
             for (d = 0; d < D; d++) {
-                s->bx[(n - 1) * D + d] = x[d];
+                s->bx[(n - 1) * D + d] = x[d] - s->av[d];
                 s->pv[d] = x[d];
             }
             s->tp = t;
@@ -226,9 +227,9 @@ static inline int sw_step(mkpla_sw *s, mkpla_real t, const mkpla_real *x, mkpla_
     for (d = 0; d < D; d++) {
         s->av[d] = s->pv[d];
         s->pv[d] = x[d];
-        s->bx[d] = x[d];
+        s->bx[d] = x[d] - s->av[d];
     }
-    s->bt[0] = t;
+    s->bt[0] = t - s->ta;
     s->tp = t;
     s->n = 1;
     s->count++;
@@ -304,7 +305,8 @@ static inline void cplr_restart(mkpla_cplr *s, mkpla_real t, const mkpla_real *x
     s->n = 1;
 }
 
-static inline int cplr_step(mkpla_cplr *s, mkpla_real t, const mkpla_real *x, mkpla_point *p, const int D)
+static inline int cplr_step(mkpla_cplr *s, mkpla_real t, const mkpla_real *restrict x, mkpla_point *p,
+                            const int D)
 {
     int d;
     uint32_t n = s->n + 1;
@@ -519,32 +521,46 @@ static inline void normalised(const mkpla_real *x, mkpla_real *q)
         q[d] = x[d] / nrm;
 }
 
-/* SLERP between unit quaternions a and b (shortest arc) at fraction f into out (quat._slerp_unit) */
-static void slerp_unit(const mkpla_real *a, const mkpla_real *b, mkpla_real f, mkpla_real *out)
+/* the arc from a to b, computed once per push */
+typedef struct { mkpla_real sg, om, so; int same; } arc;
+
+static void arc_of(const mkpla_real *a, const mkpla_real *b, arc *r)
 {
     int k;
     mkpla_real c = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
     mkpla_real sg = c < 0 ? -1 : 1;
-    mkpla_real d2 = 0, s2 = 0, om, so, w0, w1, nn = 0;
+    mkpla_real d2 = 0, s2 = 0;
     for (k = 0; k < 4; k++) {
         mkpla_real dk = a[k] - sg * b[k];
         mkpla_real sk = a[k] + sg * b[k];
         d2 += dk * dk;
         s2 += sk * sk;
     }
-    if (d2 == 0) {
+    r->sg = sg;
+    r->same = d2 == 0;
+    r->om = 0;
+    r->so = 0;
+    if (!r->same) {
+        r->om = 2 * MK_ATAN2(MK_SQRT(d2), MK_SQRT(s2));
+        r->so = MK_SIN(r->om);
+    }
+}
+
+static void slerp_unit(const mkpla_real *a, const mkpla_real *b, const arc *r, mkpla_real f, mkpla_real *out)
+{
+    int k;
+    mkpla_real w0, w1, nn = 0, sg = r->sg;
+    if (r->same) {
         for (k = 0; k < 4; k++)
             out[k] = a[k];
         return;
     }
-    om = 2 * MK_ATAN2(MK_SQRT(d2), MK_SQRT(s2));
-    so = MK_SIN(om);
-    if (so < R(1e-12)) {
+    if (r->so < R(1e-12)) {
         w0 = 1 - f;
         w1 = f;
     } else {
-        w0 = MK_SIN((1 - f) * om) / so;
-        w1 = MK_SIN(f * om) / so;
+        w0 = MK_SIN((1 - f) * r->om) / r->so;
+        w1 = MK_SIN(f * r->om) / r->so;
     }
     for (k = 0; k < 4; k++) {
         out[k] = w0 * a[k] + w1 * sg * b[k];
@@ -582,11 +598,11 @@ static mkpla_real angle_between(const mkpla_real *a, const mkpla_real *b)
 }
 
 /* angle between buffered sample j and the SLERP decode at its time, for a segment ending at (t, qn) */
-static mkpla_real deviation(const mkpla_anglesw *s, uint32_t j, mkpla_real t, const mkpla_real *qn)
+static mkpla_real deviation(const mkpla_anglesw *s, uint32_t j, mkpla_real t, const mkpla_real *qn, const arc *r)
 {
     mkpla_real tmp[4];
     mkpla_real f = (s->bt[j] - s->ta) / (t - s->ta);
-    slerp_unit(s->qa, qn, f, tmp);
+    slerp_unit(s->qa, qn, r, f, tmp);
     return angle_between(s->bq + 4 * j, tmp);
 }
 
@@ -611,11 +627,13 @@ int mkpla_anglesw_push(mkpla_anglesw *s, mkpla_real t, const mkpla_real *q, mkpl
     ok = n <= s->maxlen;
     if (ok && n > 1) {
         int32_t first = s->failed;
-        if (first >= 0 && (uint32_t)first < n - 1 && deviation(s, (uint32_t)first, t, qn) > s->th) {
+        arc r;
+        arc_of(s->qa, qn, &r);
+        if (first >= 0 && (uint32_t)first < n - 1 && deviation(s, (uint32_t)first, t, qn, &r) > s->th) {
             ok = 0;
         } else {
             for (j = 0; j + 1 < n; j++) {
-                if (deviation(s, j, t, qn) > s->th) {
+                if (deviation(s, j, t, qn, &r) > s->th) {
                     ok = 0;
                     s->failed = (int32_t)j;
                     break;
