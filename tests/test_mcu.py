@@ -203,3 +203,91 @@ def test_code_size_and_ram_come_from_the_image(elf, image, tmp_path):
     for m in M.METHODS:
         own, _ = image.text_bytes(m)
         assert own == sum(image.functions[f][1] for f in image.encoder_functions(m) if f in image.library)
+
+
+# ---- the radio packetiser (c/mkpla/mkp.c, harness c/mcu/mkp_main.c) ------------------------------
+
+
+@pytest.fixture(scope="module")
+def mkp_elf(elf) -> Path:
+    return M.mkp_elf(elf)
+
+
+@pytest.fixture(scope="module")
+def mkp_image(mkp_elf):
+    return M.Image.load(mkp_elf, M.MKP_OBJECTS)
+
+
+def test_mkp_packets_equal_host_float32_on_test_excerpts(mkp_elf, excerpts, tmp_path):
+    jobs = M.mkp_jobs(len(excerpts))   # 0.5/1/2/5 degrees, the CLI's default bits, 20-byte packets
+    assert {j.b for j in jobs} == {9, 10, 11, 12}
+    _, results, _ = M.run_mkp(mkp_elf, excerpts, jobs, tmp_path)
+    assert sum(len(r.packets) for r in results) > 2 * len(jobs)   # more than the first and the last
+    assert all(len(p) <= 20 for r in results for p in r.packets)
+    assert M.mkp_differences(excerpts, jobs, results) == []
+
+
+@pytest.mark.shared
+def test_mkp_packets_equal_host_float32_on_shared_recordings(mkp_elf, shared_data, tmp_path):
+    sigs = M.shared_signals(shared_data)
+    assert len(sigs) >= 10
+    jobs = M.mkp_jobs(len(sigs))
+    _, results, _ = M.run_mkp(mkp_elf, sigs, jobs, tmp_path)
+    assert M.mkp_differences(sigs, jobs, results) == []
+
+
+def test_mkp_a_changed_packet_is_noticed(mkp_elf, excerpts, tmp_path):
+    """The comparison can fail: one bit of one packet byte flipped, or a packet sent a sample late."""
+    jobs = [M.MkpJob(0, 1.0)]
+    _, results, _ = M.run_mkp(mkp_elf, excerpts, jobs, tmp_path)
+    p = bytearray(results[0].packets[0])
+    p[5] ^= 1
+    flipped = M.MkpResult([bytes(p)] + results[0].packets[1:], results[0].sent_at, results[0].seglen)
+    late = M.MkpResult(results[0].packets, results[0].sent_at + 1, results[0].seglen)
+    assert len(M.mkp_differences(excerpts, jobs, [flipped])) == 1
+    assert len(M.mkp_differences(excerpts, jobs, [late])) == 1
+
+
+def test_mkp_push_count_includes_anglesw_and_the_packet_work(mkp_elf, mkp_image, excerpts, tmp_path):
+    """mkp_push's count includes its callees: never below anglesw's push in the same call, and a
+    push that sends a packet (its CRC) costs more above anglesw than one that sends none."""
+    sigs = excerpts[:3] + [M.shaking_signal(150)]
+    k = len(sigs) - 1
+    jobs = [M.MkpJob(i, 2.0) for i in range(k)] + [M.MkpJob(k, 0.5), M.MkpJob(k, 5.0, bits=6)]
+    _, results, (c_mkp, c_asw) = M.run_mkp(mkp_elf, sigs, jobs, tmp_path, count=("mkp_push", "mkpla_anglesw_push"),
+                                           image=mkp_image)
+    c_mkp, c_asw = np.asarray(c_mkp), np.asarray(c_asw)
+    assert len(c_mkp) == len(c_asw) == sum(len(sigs[j.signal].t) for j in jobs)
+    assert np.all(c_asw > 0)
+    over = c_mkp - c_asw
+    assert over.min() >= 100          # quantise + dequantise (4 floors, sqrts) at least
+    sent = np.zeros(len(c_mkp), bool)
+    start = 0
+    for j, r in zip(jobs, results):
+        n = len(sigs[j.signal].t)
+        at = r.sent_at[r.sent_at < n]
+        sent[start + at] = True
+        start += n
+    assert sent.sum() > 20 and (~sent).sum() > 20
+    # a packet closed: at least 16 bytes through the bitwise CRC, 8 steps each
+    assert np.median(over[sent]) > np.median(over[~sent]) + 16 * 8
+
+
+def test_mkp_block_counts_equal_single_step_counts(mkp_elf, mkp_image, tmp_path):
+    sigs = [M.turning_signal(30), M.shaking_signal(30)]
+    jobs = [M.MkpJob(0, 2.0, maxlen=20), M.MkpJob(1, 0.5)]
+    _, _, blocks = M.run_mkp(mkp_elf, sigs, jobs, tmp_path / "b", count=("mkp_push",), image=mkp_image)
+    _, _, single = M.run_mkp(mkp_elf, sigs, jobs, tmp_path / "s", count=("mkp_push",), image=mkp_image,
+                             singlestep=True)
+    assert blocks == single
+
+
+def test_mkp_code_size_and_ram_come_from_the_image(mkp_elf, mkp_image, tmp_path):
+    sizes, _, _ = M.run_mkp(mkp_elf, [M.still_signal(3)], [M.MkpJob(0, 2.0)], tmp_path)
+    # the state holds the anglesw state and the pending packet's MKP_MAX_PACKET bytes
+    assert sizes["mkp_packetiser"] >= sizes["anglesw"] + 255
+    fs = mkp_image.closure(["mkp_init", "mkp_push", "mkp_flush"])
+    assert {"mkp_push", "mkpla_anglesw_push"} <= fs
+    own, libc = mkp_image.text_bytes(M.MKP, fs)
+    assert own == sum(mkp_image.functions[f][1] for f in fs if f in mkp_image.library)
+    assert own > mkp_image.functions["mkpla_anglesw_push"][1] + mkp_image.functions["mkp_push"][1]

@@ -19,6 +19,12 @@ points and, per push, the segment length n before it.
    helpers they call (call graph from ``objdump -d``); **RAM**: ``sizeof`` of the state (from the
    harness, on the target) plus the SW/anglesw buffer for a maximum segment length L.
 
+4. **The radio packetiser** (``c/mkpla/mkp.c``) runs in a second harness (``c/mcu/mkp_main.c``):
+   ``mkp_init``, one ``mkp_push`` per float32 sample, ``mkp_flush``; its packets must equal
+   :func:`mocapkit.pla.packets.packetise` with ``precision="float32"`` byte for byte (the CLI's default
+   bits, 20-byte packets). ``mkp_push`` is counted as above, callees (quantiser, anglesw, bit packing,
+   CRC) included; ``mkpla_anglesw_push`` is counted in the same run, for what the packetiser adds.
+
     python tools/mcu_measure.py [--opt -O2] [--json docs/mcu.json] [--data ../shared/data]
 """
 
@@ -142,18 +148,19 @@ class Image:
     calls: dict[str, set[str]] = field(default_factory=dict)
 
     @classmethod
-    def load(cls, elf: Path) -> Image:
+    def load(cls, elf: Path, objects: tuple[str, ...] = ("mkpla.o",)) -> Image:
+        """``objects``: the library's object files (beside the ELF) whose functions are "own" code."""
         funcs: dict[str, tuple[int, int]] = {}
         for line in _run(["arm-none-eabi-nm", "-S", "--size-sort", str(elf)]).stdout.splitlines():
             parts = line.split()
             if len(parts) == 4 and parts[2] in "tTwW":
                 funcs[parts[3]] = (int(parts[0], 16) & ~1, int(parts[1], 16))
-        obj = Path(elf).parent / "mkpla.o"
         lib = set()
-        for line in _run(["arm-none-eabi-nm", "--defined-only", str(obj)]).stdout.splitlines():
-            parts = line.split()
-            if len(parts) == 3 and parts[1] in "tT":
-                lib.add(parts[2])
+        for obj in objects:
+            for line in _run(["arm-none-eabi-nm", "--defined-only", str(Path(elf).parent / obj)]).stdout.splitlines():
+                parts = line.split()
+                if len(parts) == 3 and parts[1] in "tT":
+                    lib.add(parts[2])
         missing = lib - set(funcs)
         if missing:
             raise McuError(f"{elf}: no sized symbol for {sorted(missing)}")
@@ -193,9 +200,11 @@ class Image:
         """``mkpla_<method>_init/_push/_flush`` with the functions they call."""
         return self.closure(f"mkpla_{method}_{op}" for op in ("init", "push", "flush"))
 
-    def text_bytes(self, method: str) -> tuple[int, dict[str, int]]:
-        """Code bytes of the encoder's own functions (mkpla.o), and the C library routines it calls."""
-        fs = self.encoder_functions(method)
+    def text_bytes(self, method: str, functions: set[str] | None = None) -> tuple[int, dict[str, int]]:
+        """Code bytes of the encoder's own functions (mkpla.o), and the C library routines it calls.
+
+        ``functions``: count these (with their own library/libc split) instead of the encoder's."""
+        fs = self.encoder_functions(method) if functions is None else functions
         own = sum(self.functions[f][1] for f in fs if f in self.library)
         libc = {f: self.functions[f][1] for f in sorted(fs - self.library)}
         return own, libc
@@ -443,7 +452,7 @@ def run(elf: Path, signals: list[Signal], jobs: list[Job], workdir: Path, *, cou
             raise McuError(f"QEMU/harness failed ({res.returncode}): {(res.stderr + res.stdout).strip()[-2000:]}")
     else:
         image = image or Image.load(elf)
-        counts = _traced(cmd, image, count, singlestep, timeout)
+        counts = _traced(cmd, image, f"mkpla_{count}_push", singlestep, timeout)
     sizes, results = read_output(out, jobs, signals)
     if counts is not None:
         pushes = sum(len(signals[j.signal].t) for j in jobs)
@@ -452,17 +461,23 @@ def run(elf: Path, signals: list[Signal], jobs: list[Job], workdir: Path, *, cou
     return sizes, results, counts
 
 
-def _traced(cmd: list[str], image: Image, method: str, singlestep: bool, timeout: float) -> list[int]:
-    push = f"mkpla_{method}_push"
-    closure = image.closure([push])
-    inside = [image.range(f) for f in sorted(closure)]
-    if all(image.callers(f) <= closure for f in closure - {push}):
+def _traced(cmd: list[str], image: Image, push: str | tuple[str, ...], singlestep: bool, timeout: float):
+    """Instructions of every call of ``push`` (a function name), from one traced QEMU run.
+
+    ``push`` a tuple of names: one list of counts per name, all from the same run."""
+    names = (push,) if isinstance(push, str) else tuple(push)
+    insides = [[image.range(f) for f in sorted(image.closure([p]))] for p in names]
+    closure = image.closure([names[0]])
+    if len(names) == 1 and all(image.callers(f) <= closure for f in closure - {names[0]}):
         # nothing outside calls into the push function's callees: log only them, a call ends where
         # the next one starts (the log is shorter, QEMU faster)
-        logged, returns_logged = inside, False
+        logged, returns_logged = insides[0], False
     else:
-        # log the whole library too: the return into mkpla_encoder_push ends a call
-        logged, returns_logged = sorted(set(inside) | {image.range(f) for f in image.library}), True
+        # log the whole library and the push functions' callers too: the return into the caller
+        # (mkpla_encoder_push, the packet harness's main) ends a call
+        logged = set().union(*map(set, insides)) | {image.range(f) for f in image.library}
+        logged |= {image.range(c) for p in names for c in image.callers(p)}
+        logged, returns_logged = sorted(logged), True
     dfilter = ",".join(f"{a:#x}+{b - a:#x}" for a, b in logged)
     flags = "exec,nochain" if singlestep else "in_asm,exec,nochain"
     r, w = os.pipe()
@@ -475,7 +490,7 @@ def _traced(cmd: list[str], image: Image, method: str, singlestep: bool, timeout
     full = cmd + (["-singlestep"] if singlestep else []) + ["-d", flags, "-dfilter", dfilter, "-D", f"/dev/fd/{w}"]
     proc = subprocess.Popen(full, stdout=subprocess.PIPE, stderr=subprocess.PIPE, pass_fds=(w,))
     os.close(w)
-    counter = CallCounter(image.range(push)[0], inside, singlestep, returns_logged)
+    counters = [CallCounter(image.range(p)[0], ins, singlestep, returns_logged) for p, ins in zip(names, insides)]
     chunks: queue.Queue = queue.Queue(maxsize=64)
 
     def reader() -> None:   # reads while the main thread parses, so QEMU never waits for the parser
@@ -499,7 +514,8 @@ def _traced(cmd: list[str], image: Image, method: str, singlestep: bool, timeout
     timer.start()
     try:
         while (chunk := chunks.get()) is not None:
-            counter.feed(chunk)
+            for counter in counters:
+                counter.feed(chunk)
         out, err = proc.communicate()
     finally:
         timer.cancel()
@@ -510,7 +526,8 @@ def _traced(cmd: list[str], image: Image, method: str, singlestep: bool, timeout
     if proc.returncode != 0:
         msg = (err + out).decode(errors="replace")[-2000:]
         raise McuError(f"traced QEMU/harness failed ({proc.returncode}): {msg}")
-    return counter.finish()
+    counts = [c.finish() for c in counters]
+    return counts[0] if isinstance(push, str) else counts
 
 
 # --------------------------------------------------------------------------------------------------
@@ -590,6 +607,269 @@ def shaking_signal(n: int, seed: int = 13) -> Signal:
     q = rng.normal(size=(n, 4))
     q /= np.linalg.norm(q, axis=1)[:, None]
     return as_sensor("synthetic/shaking", np.arange(n) * 0.01, q)
+
+
+# --------------------------------------------------------------------------------------------------
+# the radio packetiser (c/mkpla/mkp.c) on the M4: the second harness, c/mcu/mkp_main.c
+# --------------------------------------------------------------------------------------------------
+
+MKP = "mkp (anglesw + packets)"
+MKP_MAGIC_IN = 0x4A504B4D
+MKP_MAGIC_OUT = 0x4F504B4D
+#: packet size of the equality runs and the counts (the CLI's default, a BLE 4 ATT payload)
+MKP_PACKET_BYTES = 20
+#: the library's objects in the packet harness
+MKP_OBJECTS = ("mkp.o", "mkpla.o")
+
+
+def mkp_elf(elf: Path) -> Path:
+    """The packet harness built beside the encoders' harness ``elf`` (``make -C c/mcu`` builds both)."""
+    return Path(elf).parent / "mkp_harness.elf"
+
+
+@dataclass(frozen=True)
+class MkpJob:
+    """One signal through the packetiser: bound in degrees, ``bits`` per component (None: the CLI's default)."""
+
+    signal: int
+    max_angle_deg: float
+    bits: int | None = None
+    packet_bytes: int = MKP_PACKET_BYTES
+    maxlen: int = DEFAULT_MAXLEN["anglesw"]
+    sensor: int = 0
+
+    @property
+    def b(self) -> int:
+        """The bits per component: the job's, else the one ``mocapkit compress ... .mkp`` chooses."""
+        from mocapkit.pla.packets import default_bits
+
+        return default_bits(self.max_angle_deg) if self.bits is None else int(self.bits)
+
+    @property
+    def label(self) -> str:
+        return f"{self.max_angle_deg:g} deg, {self.b} bits, {self.packet_bytes} B"
+
+
+@dataclass
+class MkpResult:
+    """What the packet harness wrote for a job."""
+
+    packets: list[bytes]
+    sent_at: np.ndarray  # the sample whose push sent each packet (n: the flush)
+    seglen: np.ndarray   # uint32: anglesw's segment length before each push
+
+
+def mkp_jobs(n_signals: int) -> list[MkpJob]:
+    """Every signal at every bound of :data:`ANGLES_DEG`, the CLI's default bits, 20-byte packets, L = 1000."""
+    return [MkpJob(i, deg) for i in range(n_signals) for deg in ANGLES_DEG]
+
+
+def write_mkp_input(path: Path, signals: list[Signal], jobs: list[MkpJob]) -> None:
+    """The packet harness's input file (format in ``c/mcu/mkp_main.c``)."""
+    if len(signals) > MAX_SIGNALS:
+        raise McuError(f"at most {MAX_SIGNALS} signals per run, got {len(signals)}")
+    parts = [struct.pack("<4I", MKP_MAGIC_IN, VERSION, len(signals), len(jobs))]
+    for s in signals:
+        if len(s.t) > MAX_SAMPLES:
+            raise McuError(f"{s.name}: {len(s.t)} samples, the harness takes {MAX_SAMPLES}")
+        parts += [struct.pack("<I", len(s.t)), s.q.astype("<f4").tobytes()]
+    for j in jobs:
+        if j.maxlen > MAX_SEGMENT:
+            raise McuError(f"maximum segment length {j.maxlen} above the harness's {MAX_SEGMENT}")
+        # the radians as the host binding hands them to the float32 build (a double rounded to float)
+        parts.append(struct.pack("<5If", j.signal, j.maxlen, j.b, j.packet_bytes, j.sensor,
+                                 np.float32(math.radians(j.max_angle_deg))))
+    data = b"".join(parts)
+    if len(data) > MAX_INPUT:
+        raise McuError(f"input of {len(data)} bytes, the harness takes {MAX_INPUT}")
+    path.write_bytes(data)
+
+
+def read_mkp_output(path: Path, jobs: list[MkpJob], signals: list[Signal]) -> tuple[dict[str, int], list[MkpResult]]:
+    """Parse the packet harness's output: ``sizeof`` of the states and one :class:`MkpResult` per job."""
+    raw = Path(path).read_bytes()
+    w = np.frombuffer(raw, dtype="<u4")
+    if len(w) < 5 or w[0] != MKP_MAGIC_OUT or w[1] != VERSION or w[2] != len(jobs):
+        raise McuError(f"{path}: not a packet harness output for {len(jobs)} jobs")
+    sizes = {"mkp_packetiser": int(w[3]), "anglesw": int(w[4])}
+    pos = 5
+    out = []
+    for j in jobs:
+        npk, nb = int(w[pos]), int(w[pos + 1])
+        sent = w[pos + 2: pos + 2 + npk].astype(np.int64)
+        lens = w[pos + 2 + npk: pos + 2 + 2 * npk].astype(np.int64)
+        pos += 2 + 2 * npk
+        if int(lens.sum()) != nb:
+            raise McuError(f"{path}: job {j}: packet lengths do not add up to {nb} bytes")
+        body = raw[4 * pos: 4 * pos + nb]
+        pos += (nb + 3) // 4
+        edges = np.concatenate([[0], np.cumsum(lens)])
+        packets = [body[a:b] for a, b in zip(edges[:-1].tolist(), edges[1:].tolist())]
+        n = int(w[pos])
+        if n != len(signals[j.signal].t):
+            raise McuError(f"{path}: job {j} reports {n} samples")
+        seglen = w[pos + 1: pos + 1 + n].copy()
+        pos += 1 + n
+        out.append(MkpResult(packets, sent, seglen))
+    if pos != len(w):
+        raise McuError(f"{path}: {len(w) - pos} words after the last job")
+    return sizes, out
+
+
+def run_mkp(elf: Path, signals: list[Signal], jobs: list[MkpJob], workdir: Path, *,
+            count: tuple[str, ...] = (), image: Image | None = None, singlestep: bool = False,
+            timeout: float = 600.0):
+    """Run packet jobs on the emulated Cortex-M4 (``elf``: the packet harness, :func:`mkp_elf`).
+
+    Returns ``(sizes, results, counts)``: ``counts`` holds, for each function name of ``count``
+    (``"mkp_push"``, ``"mkpla_anglesw_push"``), the instructions of its every call in push order,
+    all from one traced run.
+    """
+    for ch in str(workdir):
+        if ch in " ,":
+            raise McuError(f"{workdir}: QEMU's semihosting arguments cannot hold spaces or commas")
+    workdir.mkdir(parents=True, exist_ok=True)
+    inp, out = workdir / "mkp_jobs.bin", workdir / "packets.bin"
+    write_mkp_input(inp, signals, jobs)
+    if out.exists():
+        out.unlink()
+    cmd = _qemu_cmd(elf, inp, out)
+    counts: list[list[int]] = []
+    if not count:
+        res = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=timeout)
+        if res.returncode != 0:
+            raise McuError(f"QEMU/packet harness failed ({res.returncode}): {(res.stderr + res.stdout).strip()[-2000:]}")
+    else:
+        image = image or Image.load(elf, MKP_OBJECTS)
+        counts = _traced(cmd, image, tuple(count), singlestep, timeout)
+    sizes, results = read_mkp_output(out, jobs, signals)
+    pushes = sum(len(signals[j.signal].t) for j in jobs)
+    for name, c in zip(count, counts):
+        if len(c) != pushes:
+            raise McuError(f"counted {len(c)} calls of {name} for {pushes} pushes")
+    return sizes, results, counts
+
+
+def host_packets(sig: Signal, job: MkpJob):
+    """The host float32 build's packets (:func:`mocapkit.pla.packets.packetise`, as ``mocapkit compress``)."""
+    from mocapkit.pla.packets import packetise
+
+    return packetise(sig.q_source, job.max_angle_deg, bits=job.b, packet_bytes=job.packet_bytes,
+                     max_segment_length=job.maxlen, sensor=job.sensor, precision="float32")
+
+
+def mkp_differences(signals: list[Signal], jobs: list[MkpJob], results: list[MkpResult]) -> list[str]:
+    """Jobs whose QEMU packets differ from the host float32 build's (bytes, or the sample that sent them)."""
+    bad = []
+    for j, r in zip(jobs, results):
+        h = host_packets(signals[j.signal], j)
+        what = None
+        if len(h.packets) != len(r.packets):
+            what = f"{len(r.packets)} packets on the M4, {len(h.packets)} on the host"
+        elif h.packets != r.packets:
+            k = next(i for i, (a, b) in enumerate(zip(h.packets, r.packets)) if a != b)
+            what = f"packet {k} differs"
+        elif not np.array_equal(h.sent_at, r.sent_at):
+            what = "packets sent at other samples"
+        if what:
+            bad.append(f"{signals[j.signal].name} mkp {j.label}: {what}")
+    return bad
+
+
+def measure_mkp(elf: Path, workdir: Path, signals: list[Signal], synth: list[Signal], *,
+                line_budget: int = 3_000_000, fit_length: int = 300, log=print) -> dict:
+    """The packetiser's row: packets equality on ``signals``, counts of ``mkp_push`` (callees included),
+    code size, RAM. ``synth``: still, turning (:data:`TURN_DEG`), shaking signals as in :func:`measure`."""
+    elf = mkp_elf(elf)
+    image = Image.load(elf, MKP_OBJECTS)
+    entry: dict = {"method": MKP}
+    jobs = mkp_jobs(len(signals))
+    sizes = None
+    data_counts = np.empty(0, np.int64)
+    counted = ("mkp_push", "mkpla_anglesw_push")
+    if signals:
+        sizes, results, _ = run_mkp(elf, signals, jobs, workdir / "mkp-equality")
+        bad = mkp_differences(signals, jobs, results)
+        entry["equality_jobs"] = len(jobs)
+        entry["equality_packets"] = int(sum(len(r.packets) for r in results))
+        entry["equality_mismatches"] = bad
+        log(f"packets: {len(jobs) - len(bad)}/{len(jobs)} jobs byte for byte equal to the host float32 build "
+            f"({entry['equality_packets']} packets)")
+        if bad:
+            raise McuError("packets differ from the host float32 build: " + "; ".join(bad[:10]))
+        # cheapest first while the log budget lasts (~15 blocks per push, ~40 per buffered sample)
+        cost = sorted((15 * len(r.seglen) + 40 * int(r.seglen.sum()), k) for k, r in enumerate(results))
+        chosen, spent = [], 0
+        for c, k in cost:
+            if spent + c > line_budget:
+                break
+            spent += c
+            chosen.append(k)
+        chosen.sort()
+        if chosen:
+            used = sorted({jobs[k].signal for k in chosen})
+            remap = {s: i for i, s in enumerate(used)}
+            tjobs = [MkpJob(remap[jobs[k].signal], jobs[k].max_angle_deg) for k in chosen]
+            sizes, _, (c_mkp, c_asw) = run_mkp(elf, [signals[s] for s in used], tjobs,
+                                                workdir / "trace-mkp-data", count=counted, image=image)
+            data_counts = np.asarray(c_mkp, np.int64)
+            entry["data_jobs_traced"] = len(tjobs)
+            entry["data_jobs_total"] = len(jobs)
+            entry["data_samples_traced"] = len(data_counts)
+            over_data = data_counts - np.asarray(c_asw, np.int64)
+            log(f"  mkp: {len(data_counts)} calls traced, {int(data_counts.mean())} mean, {int(data_counts.max())} max")
+    else:
+        over_data = np.empty(0, np.int64)
+    # synthetic: the steady turn for the fit in n, then the shaken sensor (a point and a packet at
+    # almost every sample) at the smallest and a middle bound
+    sjobs = [MkpJob(1, 2.0, maxlen=fit_length), MkpJob(2, 0.5), MkpJob(2, 2.0), MkpJob(0, 2.0, maxlen=20)]
+    sizes, sres, (s_mkp, s_asw) = run_mkp(elf, synth, sjobs, workdir / "trace-mkp-synth", count=counted, image=image)
+    bad = mkp_differences(synth, sjobs, sres)
+    if bad:
+        raise McuError("traced run: packets differ from the host float32 build: " + "; ".join(bad[:5]))
+    s_mkp, s_asw = np.asarray(s_mkp, np.int64), np.asarray(s_asw, np.int64)
+    log(f"  mkp (synthetic): {len(s_mkp)} calls traced, {int(s_mkp.max())} max")
+    all_counts = np.concatenate([data_counts, s_mkp])
+    over = np.concatenate([over_data, s_mkp - s_asw])
+    entry["instructions_per_sample_mean"] = round(float(data_counts.mean()), 1) if len(data_counts) else None
+    entry["instructions_per_sample_min"] = int(all_counts.min())
+    entry["calls_traced"] = len(all_counts)
+    # what the packetiser adds to anglesw's push (quantise, dequantise, the bits, a packet's CRC)
+    entry["packetiser_over_anglesw"] = {"mean": round(float(over.mean()), 1), "max": int(over.max()),
+                                        "min": int(over.min())}
+    n0 = len(synth[1].t)
+    n_fit, c_fit = sres[0].seglen.astype(np.int64), s_mkp[:n0]
+    L = sjobs[0].maxlen
+    arc = (n_fit + 1) * TURN_DEG
+    sel = (n_fit >= 1) & (n_fit < L) & (arc > 95)
+    a, b, res = fit_linear(n_fit[sel], c_fit[sel])
+    entry["fit"] = {"a": round(a, 2), "b": round(b, 3), "max_abs_residual": round(res, 2),
+                    "n_range": [int(n_fit[sel].min()), int(n_fit[sel].max())], "signal": synth[1].name,
+                    "arc_deg": "> 95", "note": "pushes that close no packet"}
+    entry["per_call_by_n"] = {str(k): int(c_fit[(n_fit == k)][0]) for k in (1, 10, 100, 200, 999)
+                              if np.any(n_fit == k)}
+    # the worst push at L: anglesw's push at n = L - 1 (its own fit, same run) plus the most the
+    # packetiser added to any push seen (a packet closed: its CRC)
+    a2, b2, _ = fit_linear(n_fit[sel], s_asw[:n0][sel])
+    worst = round(a2 + b2 * (RAM_L - 1)) + int(over.max())
+    entry["worst_case_at_L"] = {"L": RAM_L, "n": RAM_L - 1, "instructions": worst, "measured": bool(L >= RAM_L),
+                                "note": "anglesw's push at n = L - 1 (fit) + the packetiser's largest addition seen"}
+    entry["instructions_per_sample_max"] = max(int(all_counts.max()), worst)
+    fs = image.closure(f"mkp_{op}" for op in ("init", "push", "flush"))
+    own, libc = image.text_bytes(MKP, fs)
+    mkp_own = Image.load(elf, ("mkp.o",)).library
+    entry["text_bytes"] = own
+    entry["text_bytes_mkp_only"] = sum(image.functions[f][1] for f in fs & mkp_own)
+    entry["libc_called"] = libc
+    entry["functions"] = sorted(f for f in fs if f in image.library)
+    entry["ram_bytes"] = sizes["mkp_packetiser"] + 4 * 5 * RAM_L
+    entry["ram_note"] = (f"state {sizes['mkp_packetiser']} B (anglesw's {sizes['anglesw']} B and the pending packet's "
+                         f"MKP_MAX_PACKET = 255 B inside) + buffer 20 B x L, L = {RAM_L}; "
+                         f"the caller's out buffer ({MKP_PACKET_BYTES} B) besides")
+    entry["packet_bytes"] = MKP_PACKET_BYTES
+    entry["bits"] = {f"{d:g}": MkpJob(0, d).b for d in ANGLES_DEG}
+    entry["paper_ic_min_max"] = None
+    return entry
 
 
 # --------------------------------------------------------------------------------------------------
@@ -740,6 +1020,9 @@ def measure(elf: Path, workdir: Path, data: Path | None = DATA, *, line_budget: 
             a, b = e["fit"]["a"], e["fit"]["b"]
             e["ratio_to_fastsw_max"] = {str(n): round((a + b * n) / fast_max, 1) for n in (10, 100, 1000)}
             e["paper_ratio"] = {str(n): round((161 + 35 * n) / 210, 1) for n in (10, 100, 1000)}
+    if mkp_elf(elf).is_file():
+        rows.append(measure_mkp(elf, workdir, signals, synth, line_budget=line_budget,
+                                fit_length=anglesw_fit_length, log=log))
     api = [f for f in image.library if f.startswith("mkpla_encoder_")]
     facts["encoder_api_text_bytes"] = sum(image.functions[f][1] for f in api)
     facts["state_sizes"] = sizes
@@ -770,11 +1053,11 @@ def table(rows: list[dict], compare: dict[str, dict] | None = None) -> str:
         mx = str(e["instructions_per_sample_max"])
         if "worst_case_at_L" in e:
             mx += f" (n = {e['worst_case_at_L']['n']})"
-        line = f"| {NAMES[e['method']]} | {mean} | {e['instructions_per_sample_min']} | {mx} | {_per_call(e)} |"
+        line = f"| {NAMES.get(e['method'], e['method'])} | {mean} | {e['instructions_per_sample_min']} | {mx} | {_per_call(e)} |"
         if other:
             c = compare[e["method"]]
             line += f" {c['instructions_per_sample_max']}" + (f" ({_per_call(c)})" if "fit" in c else "") + " |"
-        ram = f"{e['ram_bytes']}" + (f" (L = {RAM_L})" if e["method"] in ("sw", "anglesw") else "")
+        ram = f"{e['ram_bytes']}" + (f" (L = {RAM_L})" if e["method"] in ("sw", "anglesw", MKP) else "")
         out.append(line + f" {pmin} | {pmax} | {e['text_bytes']} | {ram} |")
     return "\n".join(out)
 

@@ -8,11 +8,9 @@
 
 #ifdef MKPLA_FLOAT32
 #define MKP_SQRT(x) sqrtf(x)
-#define MKP_FLOOR(x) floorf(x)
 #define MKP_TICK_LIMIT 0x1000000u /* float32 holds integers exactly up to 2^24 */
 #else
 #define MKP_SQRT(x) sqrt(x)
-#define MKP_FLOOR(x) floor(x)
 #define MKP_TICK_LIMIT 0xffffffffu
 #endif
 
@@ -65,9 +63,10 @@ int mkp_quantise(const mkpla_real *q, int bits, uint16_t *code)
         if (d == i)
             continue;
         x = sg * q[d] / nrm;
-        c = MKP_FLOOR((x * k + mm) * (mkpla_real)0.5 + (mkpla_real)0.5);
+        c = (x * k + mm) * (mkpla_real)0.5 + (mkpla_real)0.5;
         if (c < 0)
             c = 0;
+        c = (mkpla_real)(int32_t)c; /* rounds toward zero: floor for c >= 0 (no libm call on a Cortex-M4) */
         if (c > (mkpla_real)M)
             c = (mkpla_real)M;
         code[j++] = (uint16_t)c;
