@@ -184,11 +184,13 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
             if report is not None:
                 report(row, len(rows), n_err, total)
     except KeyboardInterrupt:
-        runner.close()  # the workers stop now
-        journal.close()
+        previous = ignore_interrupts()  # a second Ctrl-C while stopping must not cut the stop short
         try:
+            runner.close()  # the workers stop now
+            journal.close()
             feed.close()  # the rows finished so far reach the catalog too
         finally:
+            ignore_interrupts(previous)
             raise BatchInterrupted(len(rows) - len(kept), total - len(kept), out / JOURNAL_NAME) from None
     finally:
         runner.close()
@@ -198,6 +200,17 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
     added = feed.close()
     return BatchResult(rows, found.skipped, len(kept), time.perf_counter() - t0, out / RESULTS_NAME,
                        out / JOURNAL_NAME, cache, added)
+
+
+def ignore_interrupts(handler=None):
+    """Ignore SIGINT (a terminal's further Ctrl-C while a batch stops), or restore ``handler``; returns the
+    handler it replaced. Outside the main thread (where signals cannot be set) it does nothing."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGINT, signal.SIG_IGN if handler is None else handler)
 
 
 def _hash_or_none(path: Path) -> str | None:
