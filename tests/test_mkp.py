@@ -462,8 +462,6 @@ def _one_point(bits=11, index=0, codes=(1024, 1024, 1024)) -> bytes:
     (lambda d: d[:9] + bytes([d[9] ^ 1]) + d[10:], "header's CRC-32"),
     (lambda d: d[:20], "shorter than its header"),
     (lambda d: d[:26], "truncated header"),
-    (lambda d: d[:-3], "truncated: packet"),
-    (lambda d: d + b"\x05\x00", "truncated: packet"),
 ])
 def test_container_problems_are_format_errors(excerpt, mutate, message):
     pk = packetise(next(iter(excerpt.values())).values, 2.0, bits=10)
@@ -596,3 +594,42 @@ def test_info_reports_settings_points_and_losses(excerpt, two_sensors, tmp_path)
     sensor, seq = who[j]
     assert rec["lost_packets"] == 1 and rec["sensors"][sensor]["lost_sequence_numbers"] == 1
     assert any(f"sequence number {seq}" in w for w in rec["warnings"])
+
+
+@pytest.mark.parametrize("cut", [1, 3, 7])
+def test_a_log_cut_short_keeps_the_packets_before_the_cut(excerpt, cut):
+    """A receiver's log whose last record was cut (power lost) decodes up to the cut and reports the rest."""
+    s = next(iter(excerpt.values()))
+    pk = packetise(s.values, 2.0, bits=10)
+    data = _file(pk.packets, 10, 2.0)
+    whole = read_mkp("mem", data=data)
+    got = read_mkp("mem", data=data[:-cut])
+    (d,) = got.damaged
+    assert d.index == len(pk.packets) - 1 and "cut short" in d.problem
+    a, b = next(iter(whole.streams.values())), next(iter(got.streams.values()))
+    n = len(b.ticks)
+    assert 0 < n < len(a.ticks) and np.array_equal(a.ticks[:n], b.ticks) and np.array_equal(a.values[:n], b.values)
+    assert not b.ended and any("end of the stream is missing" in w for w in got.losses())
+    extra = read_mkp("mem", data=data + b"\x05\x00")  # a record of 5 bytes with 1 present after the end
+    assert len(extra.damaged) == 1 and np.array_equal(next(iter(extra.streams.values())).ticks, a.ticks)
+
+
+def test_decoded_points_keep_w_positive_at_the_start_and_no_sign_jumps(tmp_path):
+    """Smallest-three makes the dropped (largest) component positive: a stream where x dominates with a
+    negative sign, and where the largest component changes, decodes with sign jumps unless presented."""
+    from scipy.spatial.transform import Rotation
+
+    ang = np.linspace(2.7, 0.5, 400)  # from 155 to 29 degrees about -x: x dominates (negative), then w
+    rv = np.column_stack([-ang, 0.2 * np.sin(3 * ang), 0.1 * np.cos(ang)])
+    q = Rotation.from_rotvec(rv).as_quat()[:, [3, 0, 1, 2]]
+    q[q[:, 0] < 0] *= -1          # the sensor's own convention: w >= 0
+    pk = packetise(q, 1.0, bits=11)
+    raw_q = dequantise(pk.codes, 11)
+    assert raw_q[0, 0] < 0 and (np.einsum("ij,ij->i", raw_q[1:], raw_q[:-1]) < 0).any()  # the case exists
+    path = tmp_path / "x.mkp"
+    path.write_bytes(_file(pk.packets, 11, 1.0))
+    decompress_packets_job(path, tmp_path / "pts.csv")
+    rows = np.loadtxt(tmp_path / "pts.csv", delimiter=",", skiprows=1)
+    got = rows[:, 1:5]
+    assert got[0, 0] >= 0 and np.all(np.einsum("ij,ij->i", got[1:], got[:-1]) >= 0)
+    assert np.max(angle(got, raw_q)) < 1e-9  # the same rotations (CSV text)

@@ -97,9 +97,9 @@ def compress(
     packet_bits: Annotated[Optional[int], typer.Option(
         "--packet-bits", help=".mkp packets: bits per quaternion component, 6..16 (default: the fewest whose "
                               "quantisation stays within 15% of --max-angle).", callback=_within(6, 16))] = None,
-    packet_bytes: Annotated[int, typer.Option(
-        "--packet-bytes", help=".mkp packets: the radio payload, 16..255 bytes (20: BLE 4 ATT).",
-        callback=_within(16, 255))] = 20,
+    packet_bytes: Annotated[Optional[int], typer.Option(
+        "--packet-bytes", help=".mkp packets: the radio payload, 16..255 bytes (default 20: BLE 4 ATT).",
+        callback=_within(16, 255))] = None,
     strict: StrictOpt = True,
     stats_only: Annotated[
         bool, typer.Option("--stats-only", help="Only measure (print the table); write no points or clip.")
@@ -124,13 +124,14 @@ def compress(
 
         rec = compress_packets_job(
             input, output, max_angle=max_angle, method=method.value, threshold=threshold, target_icr=target_icr,
-            packet_bits=packet_bits, packet_bytes=packet_bytes, max_segment_length=max_segment_length, rate=rate,
+            packet_bits=packet_bits, packet_bytes=20 if packet_bytes is None else packet_bytes,
+            max_segment_length=max_segment_length, rate=rate,
             time_column=time_column, quaternion_columns=quaternion_columns, scalar_last=scalar_last,
             time_unit=time_unit, progress=_progress)
         print_warnings(rec)
         print_compress(rec, input, as_json)
         return
-    if packet_bits is not None or packet_bytes != 20:
+    if packet_bits is not None or packet_bytes is not None:
         raise InvalidParameterError("--packet-bits and --packet-bytes apply to a packet stream (-o OUT.mkp)")
     rec = compress_job(
         input, method=method.value, threshold=threshold, target_icr=target_icr, max_angle=max_angle,

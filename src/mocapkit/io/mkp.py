@@ -25,10 +25,10 @@ A packet (all of it covered by its CRC-16)::
     groups) then quaternion; a quaternion = dropped component's index (2 bits) + 3 codes of B bits;
     zero bits to the byte | CRC-16/CCITT-FALSE of the bytes before it (uint16)
 
-Reading is strict about the container: a bad header, a truncated packet record or a packet whose CRC
-matches but whose content is impossible is a :class:`~mocapkit.errors.MocapFormatError` naming the
-file and the packet. A packet whose CRC does not match (a radio error) is *reported*, not raised: it
-is dropped, and the missing sequence numbers of its sensor are listed, so the decoder can refuse to
+Reading is strict about the container: a bad header or a packet whose CRC matches but whose content
+is impossible is a :class:`~mocapkit.errors.MocapFormatError` naming the file and the packet. A packet
+whose CRC does not match (a radio error), or a last record cut short by the end of the file (a
+receiver's log cut by a power loss), is *reported*, not raised: it is dropped, and the missing sequence numbers of its sensor are listed, so the decoder can refuse to
 bridge the gap (:attr:`SensorPoints.gap_before`).
 """
 
@@ -372,9 +372,10 @@ def read_mkp(path: str | Path, *, data: bytes | None = None) -> PacketFile:
         off = pos
         length = data[pos]
         pos += 1
-        if pos + length > len(data):
-            raise MocapFormatError(where, None, f"truncated: packet {index} at byte {off} declares {length} bytes, "
-                                                f"{len(data) - pos} remain")
+        if pos + length > len(data):  # a receiver's log cut short (power lost): the packets before it stand
+            damaged.append(Damaged(index, off, len(data) - pos, f"cut short: the file ends inside it ({length} bytes "
+                                                               f"declared, {len(data) - pos} present)"))
+            break
         pkt = data[pos:pos + length]
         pos += length
         here = f"packet {index} (byte {off})"

@@ -187,6 +187,16 @@ def _originals(times_from: Path, names: list[str], rate, columns) -> dict:
     return {n: orig[n] for n in names}
 
 
+def _presented(q: np.ndarray) -> np.ndarray:
+    """The points as written: smallest-three makes the dropped component positive, so a decoded point may
+    be the negation of the sensor's; the same rotations are shown with w >= 0 at the first point and no
+    sign jump after it (negation is exact; the SLERP decode takes the shortest arc either way)."""
+    from mocapkit.quat import hemisphere_continuous
+
+    q = hemisphere_continuous(q)
+    return -q if len(q) and q[0, 0] < 0 else q
+
+
 def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None = None, rate: float | None = None,
                            time_column: str | None = None, quaternion_columns: str | None = None,
                            scalar_last: bool = False, time_unit: str | None = None) -> dict:
@@ -221,9 +231,10 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
         r, t0 = s.sensor.rate, s.sensor.t0
         if len(s.ticks) == 0:
             raise InvalidParameterError(f"{path}: no point of sensor {name} arrived")
+        values = _presented(s.values)
         if originals is None and rate is None:
             rows = [format_row(t0 + int(k) / r, v) + f",{int(k)},{int(g)}"
-                    for k, v, g in zip(s.ticks.tolist(), s.values.tolist(), s.gap_before.tolist())]
+                    for k, v, g in zip(s.ticks.tolist(), values.tolist(), s.gap_before.tolist())]
             written[name] = ("points", ",".join(POINT_COLUMNS) + "\n" + "".join(x + "\n" for x in rows))
             records.append(rec)
             continue
@@ -244,7 +255,7 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
                 raise InvalidParameterError(f"--rate {rate:g} over {span:g} s gives {m} samples; too many")
             times = t0 + float(s.ticks[0]) / r + np.arange(m) / rate
             u = (times - t0) * r
-        keep, vals = decode_at(s.ticks, s.values, s.gap_before, u)
+        keep, vals = decode_at(s.ticks, values, s.gap_before, u)
         rec["samples"] = int(keep.sum())
         rec["samples_left_out"] = int((~keep).sum())
         written[name] = ("samples", times[keep], vals)
