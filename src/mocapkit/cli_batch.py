@@ -89,7 +89,7 @@ def _progress():
 def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: Optional[int], engine: str,
          scheduler: Optional[str], resume: bool, db: Optional[str]) -> None:
     from mocapkit.batch import run_batch
-    from mocapkit.batch.engine import BatchInterrupted, ignore_interrupts
+    from mocapkit.batch.engine import BatchInterrupted, hold_interrupts
 
     n = jobs if jobs is not None else (os.cpu_count() or 1)
     report, close = _progress()
@@ -97,7 +97,7 @@ def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: Optional[i
         res = run_batch(job, inputs, options, out, jobs=n, engine=engine, scheduler=scheduler, resume=resume,
                         db=db, report=report)
     except BatchInterrupted as e:
-        ignore_interrupts()  # exiting: a further Ctrl-C must not kill the process before it says how to resume
+        hold_interrupts()  # exiting: a further Ctrl-C must not kill the process before it says how to resume
         close()
         err.print(str(e), markup=False, highlight=False, soft_wrap=True)
         raise typer.Exit(130) from None

@@ -184,13 +184,13 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
             if report is not None:
                 report(row, len(rows), n_err, total)
     except KeyboardInterrupt:
-        previous = ignore_interrupts()  # a second Ctrl-C while stopping must not cut the stop short
+        previous = hold_interrupts()  # a second Ctrl-C while stopping must not cut the stop short
         try:
             runner.close()  # the workers stop now
             journal.close()
             feed.close()  # the rows finished so far reach the catalog too
         finally:
-            ignore_interrupts(previous)
+            hold_interrupts(previous)
             raise BatchInterrupted(len(rows) - len(kept), total - len(kept), out / JOURNAL_NAME) from None
     finally:
         runner.close()
@@ -202,7 +202,7 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
                        out / JOURNAL_NAME, cache, added)
 
 
-def ignore_interrupts(handler=None):
+def hold_interrupts(handler=None):
     """Ignore SIGINT (a terminal's further Ctrl-C while a batch stops), or restore ``handler``; returns the
     handler it replaced. Outside the main thread (where signals cannot be set) it does nothing."""
     import signal
