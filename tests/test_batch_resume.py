@@ -44,9 +44,15 @@ def _env(tmp_path: Path, **extra) -> dict:
     return {**os.environ, "TMPDIR": str(tmp_path / "tmp"), **extra}
 
 
+def _sigint_as_in_a_terminal() -> None:
+    # a shell's background job (e.g. a CI script run with `&`) inherits SIGINT *ignored*, and Python keeps
+    # an ignored SIGINT: the batch under test would never see the Ctrl-C this file sends it
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(args, env) -> subprocess.Popen:
     return subprocess.Popen([*MOCAPKIT, *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            start_new_session=True, env=env)
+                            start_new_session=True, env=env, preexec_fn=_sigint_as_in_a_terminal)
 
 
 def _wait_rows(journal: Path, proc: subprocess.Popen, n: int, timeout: float = 180.0) -> list[dict]:
