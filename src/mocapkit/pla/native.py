@@ -21,7 +21,7 @@ MAX_DIM = 16
 #: largest maximum segment length whose buffer (SW, anglesw) is allocated up front for C
 MAX_BUFFERED = 1 << 20
 
-_ERRORS = {
+C_ERRORS = {
     -1: "bad dimension, method, threshold or maximum segment length",
     -2: "buffer too small for the maximum segment length",
     -3: "time is not after the previous time",
@@ -92,7 +92,7 @@ class NativeEncoder:
         rc = self._lib.mkpla_encoder_init(self._enc, METHOD_CODES[method], dim, 1 if quaternion else 0,
                                           float(threshold), maxlen, self._ptr(self._buffer), n_buf)
         if rc != 0:
-            raise InvalidParameterError(f"C encoder: {_ERRORS.get(rc, rc)}")
+            raise InvalidParameterError(f"C encoder: {C_ERRORS.get(rc, rc)}")
         self._pt = self._ffi.new("mkpla_point *")
         self._x = self._ffi.new("mkpla_real[]", dim)
         self._t0: float | None = None
@@ -119,7 +119,7 @@ class NativeEncoder:
         if rc == 0:
             return None
         if rc < 0:
-            raise InvalidSignalError(f"sample {self._count - 1}: {_ERRORS.get(rc, rc)}")
+            raise InvalidSignalError(f"sample {self._count - 1}: {C_ERRORS.get(rc, rc)}")
         p = self._pt
         return int(p.index), float(p.t), tuple(p.v[d] for d in range(self.dim))
 
@@ -154,7 +154,7 @@ class NativeEncoder:
             self._enc, self._ptr(tt), self._ptr(xx), n, 1 if flush else 0,
             ffi.cast("uint32_t *", ffi.from_buffer(idx)), self._ptr(ts), self._ptr(vals), failed)
         if m < 0:
-            raise InvalidSignalError(f"sample {self._count + int(failed[0])}: {_ERRORS.get(m, m)}")
+            raise InvalidSignalError(f"sample {self._count + int(failed[0])}: {C_ERRORS.get(m, m)}")
         self._count += n
         return Points(idx[:m].astype(np.int64), ts[:m].astype(np.float64), vals[:m].astype(np.float64))
 

@@ -15,7 +15,7 @@ import numpy as np
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError
 from mocapkit.io.mkp import MAX_BITS, MAX_PACKET, MIN_BITS, MIN_PACKET, delta_bound
-from mocapkit.pla.native import _module
+from mocapkit.pla.native import C_ERRORS, _module
 
 #: mkp.h MKP_EPS: radians kept besides delta(B) for float rounding
 EPS = 1e-6
@@ -26,13 +26,9 @@ DEFAULT_MAXLEN = 1000
 #: samples per call into C
 CHUNK = 1 << 14
 
-_ERRORS = {
-    -1: "bad bits, packet size, bound or maximum segment length",
-    -2: "buffer too small",
-    -4: "zero-norm quaternion",
-    -5: "push after flush",
-    -6: "the tick counter is full",
-}
+#: the C library's return codes (mkpla.h, mkp.h), worded for the packetiser
+_ERRORS = {**C_ERRORS, -1: "bad bits, packet size, bound or maximum segment length",
+           -6: "the tick counter is full"}
 
 
 def default_bits(max_angle_deg: float, fraction: float = DEFAULT_FRACTION) -> int:
