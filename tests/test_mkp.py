@@ -633,3 +633,15 @@ def test_decoded_points_keep_w_positive_at_the_start_and_no_sign_jumps(tmp_path)
     got = rows[:, 1:5]
     assert got[0, 0] >= 0 and np.all(np.einsum("ij,ij->i", got[1:], got[:-1]) >= 0)
     assert np.max(angle(got, raw_q)) < 1e-9  # the same rotations (CSV text)
+
+
+def test_decompress_of_several_sensors_into_an_existing_folder(excerpt, two_sensors, tmp_path):
+    """Decoding again into the folder of a previous decode works (it was refused as 'a folder')."""
+    per, packets, who = two_sensors
+    path = tmp_path / "two.mkp"
+    path.write_bytes(_file(packets, 11, 1.0, names=tuple(per), rates=(50.0, 50.0)))
+    out = tmp_path / "pts"
+    assert _cli(["decompress", str(path), "-o", str(out)]) == 0
+    first = {p.name: p.read_text() for p in out.iterdir()}
+    assert _cli(["decompress", str(path), "-o", str(out)]) == 0
+    assert {p.name: p.read_text() for p in out.iterdir()} == first and len(first) == 2

@@ -446,7 +446,9 @@ def decompress(
     of a compressed skeletal clip (.mkc -> .bvh/.glb; .glb/.gltf -> .bvh)."""
     import numpy as np
 
-    _check_output(output, source=points, inputs=(times_from,))
+    # several sensors of a .mkp decode into a folder (one CSV each): an existing folder is a valid output
+    _check_output(output, folder=points.suffix.lower() == ".mkp" and output.is_dir(), source=points,
+                  inputs=(times_from,))
     if points.suffix.lower() in (".glb", ".gltf"):
         _decompress_clip(points, output, times_from, rate)
         return
