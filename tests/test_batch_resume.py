@@ -201,3 +201,49 @@ def test_ctrl_c_twice_stops_at_once_says_how_to_resume_and_resume_finishes(takes
     for x in rows:  # the rows finished before Ctrl-C are the ones kept, unchanged
         if x["input"] in kept:
             assert x == kept[x["input"]]
+
+
+class _BreaksAtSubmit:
+    """A real process pool whose workers are all killed just before its ``k``-th submit, so that submit
+    meets a pool already broken (the race between ``wait`` and ``submit`` a dying worker opens)."""
+
+    def __init__(self, pool, k: int):
+        self.pool, self.k, self.submits = pool, k, 0
+
+    def submit(self, *args, **kw):
+        self.submits += 1
+        if self.submits == self.k:
+            for p in list(self.pool._processes.values()):
+                p.kill()
+            deadline = time.monotonic() + 60
+            while not self.pool._broken and time.monotonic() < deadline:
+                time.sleep(0.01)
+            assert self.pool._broken, "the pool did not notice its killed workers"
+        return self.pool.submit(*args, **kw)
+
+    def __getattr__(self, name):
+        return getattr(self.pool, name)
+
+
+def test_a_pool_broken_between_wait_and_submit_costs_no_row(takes, tmp_path, monkeypatch):
+    """The first pool breaks at a submit (not while waiting): the batch still gives one ok row per input."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    from mocapkit.batch import engine
+
+    real_pool, made = engine._pool, []
+
+    def pool(n, ctx):
+        p = real_pool(n, ctx)
+        made.append(p)
+        return _BreaksAtSubmit(p, 6) if len(made) == 1 else p
+
+    monkeypatch.setattr(engine, "_pool", pool)
+    options = {"asf": None, "rate": None, "time_column": None, "quaternion_columns": None, "scalar_last": False,
+               "time_unit": None, "strict": True}
+    res = engine.run_batch("info", [takes], options, tmp_path / "out", jobs=2)
+    assert made[0]._broken, "the first pool must have broken"
+    with pytest.raises(BrokenProcessPool):
+        made[0].submit(print)
+    assert [r["input"] for r in res.rows] == sorted(str(p) for p in takes.rglob("*.amc"))
+    assert all(r["status"] == "ok" for r in res.rows), [r["error"] for r in res.rows if r["status"] != "ok"]

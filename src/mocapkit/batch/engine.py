@@ -320,23 +320,31 @@ def _local(job: str, tasks: list[Task], options: dict, n: int) -> Iterator[dict]
     pool = _pool(n, ctx)
     inflight: dict = {}
     finished = False
+    idle_breaks = 0
     try:
         while pending or inflight:
+            broken = False
             while pending and len(inflight) < 2 * n:
                 t = pending.popleft()
-                inflight[pool.submit(run_one, job, str(t.path), options, str(t.base))] = t
-            done, _ = wait(inflight, return_when=FIRST_COMPLETED)
-            suspects = []
-            for f in done:
-                t = inflight.pop(f)
                 try:
-                    yield f.result()
-                except BrokenProcessPool:
-                    suspects.append(t)
-                except Exception as e:  # noqa: BLE001 - e.g. a result that could not be sent back
-                    yield failed_row(job, t.path, options, f"the worker could not run this input: "
-                                                           f"{type(e).__name__}: {e}")
-            if suspects:  # the pool is broken: every input in flight fails with it
+                    inflight[pool.submit(run_one, job, str(t.path), options, str(t.base))] = t
+                except BrokenProcessPool:  # a worker died since the last wait: this input never ran
+                    pending.appendleft(t)
+                    broken = True
+                    break
+            suspects = []
+            if not broken:
+                done, _ = wait(inflight, return_when=FIRST_COMPLETED)
+                for f in done:
+                    t = inflight.pop(f)
+                    try:
+                        yield f.result()
+                    except BrokenProcessPool:
+                        suspects.append(t)
+                    except Exception as e:  # noqa: BLE001 - e.g. a result that could not be sent back
+                        yield failed_row(job, t.path, options, f"the worker could not run this input: "
+                                                               f"{type(e).__name__}: {e}")
+            if broken or suspects:  # the pool is broken: every input in flight fails with it
                 for f in wait(inflight).done:
                     t = inflight.pop(f)
                     try:
@@ -344,6 +352,10 @@ def _local(job: str, tasks: list[Task], options: dict, n: int) -> Iterator[dict]
                     except Exception:  # noqa: BLE001
                         suspects.append(t)
                 pool.shutdown(wait=True)
+                idle_breaks = 0 if suspects else idle_breaks + 1
+                if idle_breaks > 3:
+                    raise MocapError("the process pool breaks with no input running: "
+                                     "workers cannot start on this machine")
                 yield from _isolated(job, suspects, options, n, ctx)
                 pool = _pool(n, ctx)
         finished = True
