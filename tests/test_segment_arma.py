@@ -18,6 +18,10 @@ from mocapkit.segment.features import (
 )
 from mocapkit.skeleton import Motion, Skeleton
 
+#: The fitness-SD reading (the segmenter's default before the authors' code was followed): second
+#: differences everywhere, the smallest order within 1 % of the best F, the cut at the minimum SD.
+SD_READING = dict(differencing="fixed", order="parsimonious", cut="min_sd", p_range=(1, 2, 3, 4), q_range=(0, 1, 2))
+
 # ---------------------------------------------------------------------------------------------
 # features on a hand-built skeleton with known angles
 
@@ -218,14 +222,14 @@ def _changing(seed, n1=550, n=1100, noise=0.02):
 
 @pytest.mark.parametrize("seed", range(6))
 def test_cut_lands_on_the_change_in_dynamics(seed):
-    seg = ARMASegmenter(downsample=1)
+    seg = ARMASegmenter(**SD_READING, downsample=1)
     cuts = seg.fit_predict(_changing(seed))
     assert len(cuts) == 1 and abs(int(cuts[0]) - 550) <= 10
 
 
 def test_r2_and_sd_follow_the_equations():
     x = _changing(3)
-    seg = ARMASegmenter(downsample=1).fit(x)
+    seg = ARMASegmenter(**SD_READING, downsample=1).fit(x)
     ch = seg.channels_[0]
     p, q = ch["order"]
     z = np.diff(x, n=2)  # z[i] is sample i + 2
@@ -265,8 +269,8 @@ def test_r2_and_sd_follow_the_equations():
 def test_downsampling_maps_cuts_to_input_frames():
     x = _changing(1)
     fine = np.repeat(x, 4)  # the same take at 4x the rate: every 4th frame is x again
-    cuts = ARMASegmenter(downsample=4).fit_predict(fine)
-    assert cuts.tolist() == (4 * ARMASegmenter(downsample=1).fit_predict(x)).tolist()
+    cuts = ARMASegmenter(**SD_READING, downsample=4).fit_predict(fine)
+    assert cuts.tolist() == (4 * ARMASegmenter(**SD_READING, downsample=1).fit_predict(x)).tolist()
     assert len(cuts) == 1 and abs(int(cuts[0]) - 4 * 550) <= 40
 
 
@@ -274,7 +278,7 @@ def test_order_selection_picks_the_true_ar_order():
     z = _ar_series(3000, [1.2, -0.6], sigma=1.0, seed=11)
     from statsmodels.tsa.ar_model import AutoReg
 
-    order, F = ARMASegmenter().select_order(z)
+    order, F = ARMASegmenter(**SD_READING).select_order(z)
     assert order == (2, 0)
     for (p, q), v in F.items():  # F is Eq. 25: the mean squared one-step error of that model
         if q == 0:
@@ -284,7 +288,7 @@ def test_order_selection_picks_the_true_ar_order():
 
 
 def test_ensemble_rules():
-    s = ARMASegmenter(ensemble_tol=50, min_limbs=2)
+    s = ARMASegmenter(**SD_READING, ensemble_tol=50, min_limbs=2)
     assert s.ensemble([[100], [104], [300], []]) == [102]  # 300 found by one limb only: dropped
     assert s.ensemble([[100, 400], [110, 405], [90, 395], [130, 700]]) == [105, 400]
     # complete linkage: a chain 100-140-180-220 is two cuts, not one
@@ -296,14 +300,14 @@ def test_ensemble_rules():
     got = s.ensemble([list(S[:, j]) for j in range(4)])
     assert got == [int(round(float(v))) for v in np.median(S, axis=1)]
     # one channel: min_limbs is capped at the channel count
-    assert ARMASegmenter().ensemble([[10, 200]], 1) == [10, 200]
+    assert ARMASegmenter(**SD_READING).ensemble([[10, 200]], 1) == [10, 200]
 
 
 def test_multilimb_synthetic_ensemble():
     # four limbs change at the same time (±3 samples); a fifth changes alone at 850: that cut of a
     # single limb is dropped by the ensemble
     X = np.stack([_changing(s, n1=550 + d) for s, d in zip(range(4), (0, 2, -3, 1))] + [_changing(9, n1=850)], axis=1)
-    seg = ARMASegmenter(downsample=1)
+    seg = ARMASegmenter(**SD_READING, downsample=1)
     cuts = seg.fit_predict(X)
     assert any(abs(int(c) - 850) <= 10 for c in seg.limb_cuts_[4])
     assert len(cuts) == 1 and abs(int(cuts[0]) - 550) <= 10
@@ -311,7 +315,7 @@ def test_multilimb_synthetic_ensemble():
 
 def test_min_limbs_counts_moving_channels_only():
     X = np.stack([_changing(2), np.full(1100, 45.0)], axis=1)
-    assert ARMASegmenter(downsample=1).fit_predict(X).tolist() == ARMASegmenter(downsample=1).fit_predict(X[:, 0]).tolist()
+    assert ARMASegmenter(**SD_READING, downsample=1).fit_predict(X).tolist() == ARMASegmenter(**SD_READING, downsample=1).fit_predict(X[:, 0]).tolist()
 
 
 def test_differenced_windows_join_without_gap():
@@ -323,7 +327,7 @@ def test_differenced_windows_join_without_gap():
 
 
 def test_sequence_reading_of_r2():
-    seg = ARMASegmenter(downsample=1, r2_fit="sequence").fit(_changing(0))
+    seg = ARMASegmenter(**SD_READING, downsample=1, r2_fit="sequence").fit(_changing(0))
     ch = seg.channels_[0]
     z = np.diff(_changing(0), n=2)
     f = fit_arma(z, *ch["order"])
@@ -347,7 +351,80 @@ def test_contract_and_errors():
         ARMASegmenter().fit(np.zeros(100))
     with pytest.raises(InvalidSignalError):
         ARMASegmenter().fit(np.full(1000, np.nan))
-    cuts = ARMASegmenter().fit_predict(np.random.default_rng(0).normal(size=(3000, 4)))
+    cuts = ARMASegmenter(**SD_READING).fit_predict(np.random.default_rng(0).normal(size=(3000, 4)))
     assert cuts.dtype == np.int64 and (np.diff(cuts) > 0).all() and ((cuts > 0) & (cuts < 3000)).all()
     # a constant signal: every window is degenerate, no cut
-    assert ARMASegmenter().fit_predict(np.full((2000, 4), 90.0)).size == 0
+    assert ARMASegmenter(**SD_READING).fit_predict(np.full((2000, 4), 90.0)).size == 0
+
+
+def _ar_window_signal(seed: int) -> np.ndarray:
+    """Stationary AR(2) noise for 600 samples, then a burst of AR(1) 0.95 noise of another scale."""
+    rng = np.random.default_rng(seed)
+    a = _ar_series(600, [0.5, -0.3], sigma=1.0, seed=seed)
+    b = np.zeros(400)
+    e = rng.normal(0, 6.0, 400)
+    for i in range(1, 400):
+        b[i] = 0.3 * b[i - 1] + e[i]
+    return np.concatenate([a, b])
+
+
+def test_authors_reading_keeps_stationary_windows_raw_and_cuts_at_the_largest_error():
+    """segmentnote_choose: a window the ADF test finds stationary is modelled raw; point_choose2: the cut
+    is the sample of largest |measured - predicted| of that window's own one-step fit."""
+    x = _ar_window_signal(4)
+    seg = ARMASegmenter(downsample=1, window=100).fit(x)
+    ch = seg.channels_[0]
+    assert all(w["diff"] == 0 for w in ch["windows"])  # stationary: nothing differenced
+    for w in ch["windows"]:
+        s, e = w["start"], w["stop"]
+        np.testing.assert_array_equal(w["series"], x[s:e])
+        p, q = w["order"]
+        f = fit_arma(x[s:e], p, q)
+        np.testing.assert_allclose(w["resid"], f.resid[0], atol=1e-9)
+        r2 = 1 - (f.resid[0] ** 2).sum() / ((x[s + f.start:e] - x[s + f.start:e].mean()) ** 2).sum()
+        assert w["r2"] == pytest.approx(r2, abs=1e-9)
+        if r2 < 0.6:
+            assert s + f.start + int(np.argmax(np.abs(f.resid[0]))) in ch["cuts"]
+        else:
+            assert not [c for c in ch["cuts"] if s <= c < e]
+
+
+def test_authors_reading_differences_only_where_the_adf_test_fails():
+    rng = np.random.default_rng(2)
+    walk = np.cumsum(np.cumsum(rng.normal(size=300)))  # integrated twice: not stationary
+    noise = rng.normal(size=300)
+    seg = ARMASegmenter(downsample=1, window=100).fit(np.concatenate([noise, walk[:300] + 50]))
+    diffs = [w["diff"] for w in seg.channels_[0]["windows"]]
+    assert diffs[:2] == [0, 0] and 2 in diffs[3:]
+    for w in seg.channels_[0]["windows"]:
+        if w["diff"] == 2:
+            x = np.concatenate([noise, walk[:300] + 50])
+            np.testing.assert_allclose(w["series"], np.diff(x[w["start"] - 2:w["stop"]], n=2))
+
+
+def test_aic_order_is_the_least_aic_of_the_grid():
+    """order='aic': each window's (p, q) has the least AIC over p, q <= 5, recomputed here by brute
+    force from independent fits on the common tail of samples every order predicts."""
+    x = _ar_window_signal(7)[:600]
+    seg = ARMASegmenter(downsample=1, window=100).fit(x)
+    grid = [(p, q) for p in range(6) for q in range(6) if p + q]
+    tail = max((max(2 * (p + q), p + q + 2) + q) if q else p for p, q in grid)
+    for w in seg.channels_[0]["windows"]:
+        aic = {}
+        for p, q in grid:
+            f = fit_arma(w["series"], p, q)
+            r = f.resid[0][tail - f.start:]
+            aic[(p, q)] = r.size * np.log((r ** 2).mean()) + 2 * (p + q + 1)
+        assert w["order"] == min(aic, key=aic.get)
+
+
+def test_best_f_order_is_the_least_f():
+    z = _ar_series(3000, [1.2, -0.6], sigma=1.0, seed=11)
+    order, F = ARMASegmenter(order="best_f", p_range=(1, 2, 3, 4), q_range=(0, 1, 2)).select_order(z)
+    assert F[order] == min(F.values())
+
+
+def test_reading_options_are_checked():
+    for kw in ({"cut": "min"}, {"order": "bic"}, {"differencing": "always"}, {"r2_fit": "sequence"}):
+        with pytest.raises(InvalidParameterError):
+            ARMASegmenter(**kw)

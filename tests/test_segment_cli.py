@@ -37,7 +37,7 @@ def test_segment_json_contract_and_plot(excerpt, tmp_path):
     for c in rec["cuts"]:
         assert c["time_s"] == pytest.approx(c["frame"] / 15.0)
     assert rec["reference_cuts"] == [69, 144]
-    assert 0 <= rec["scores"]["ri"] <= 1 and 0 <= rec["scores"]["covering"] <= 1
+    assert 0 <= rec["scores"]["frame_agreement"] <= 1 and 0 <= rec["scores"]["covering"] <= 1
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
@@ -80,20 +80,20 @@ def test_segment_mlp_trained_on_a_take(excerpt, tmp_path):
     assert r.returncode == 0, r.stderr
     rec = json.loads(r.stdout)
     # trained and tested on the same take: the frame classifier must recover its own labels closely
-    assert rec["scores"]["ri"] > 0.8
+    assert rec["scores"]["frame_agreement"] > 0.8
 
 
 @pytest.fixture(scope="module")
 def bench_86(shared_data):
-    from mocapkit.evaluation.segmentation import load_take, make_segmenter, score
+    from mocapkit.evaluation.segmentation import features_for, load_take, make_segmenter, score
 
     cmu = shared_data / "cmu"
     take = load_take(cmu, "86_01")
     others = [load_take(cmu, n) for n in ("13_29", "13_30", "14_14")]
     out = {}
-    for method in ("arma", "pca", "kmeans", "mlp", "kernelcpd", "pelt", "clasp"):
+    for method in ("auto", "arma", "pca", "kmeans", "mlp", "kernelcpd", "pelt", "clasp"):
         seg = make_segmenter(method, take, others)
-        pred = seg.fit_predict(take.pose if method == "pca" else take.limbs)
+        pred = seg.fit_predict(features_for(method, take))
         out[method] = score(pred, take.ref)
     # the separate "known number of segments" mode
     for method in ("kernelcpd", "clasp"):
@@ -103,17 +103,19 @@ def bench_86(shared_data):
 
 
 # Regression floors on CMU 86_01, set 0.03 (0.05 for the randomised K-means, MLP, ClaSP) below what
-# `mocapkit segment-bench` measured on 2026-11-22 (docs/segmentation/segment_bench.md), never above. RI is the seed paper's accuracy (Eq. 33) as frame-level agreement.
+# `mocapkit segment-bench` measured on 2026-11-22 (docs/segmentation/segment_bench.md), never above; `auto`
+# and `arma` (the authors' reading since issue 14) measured on 2026-12-02.
 FLOOR_86 = {
-    'arma': {'ri': 0.51, 'covering': 0.49},
-    'pca': {'ri': 0.63, 'covering': 0.54},
-    'kmeans': {'ri': 0.37, 'f1': 0.45, 'covering': 0.33},
-    'mlp': {'ri': 0.71, 'f1': 0.21, 'covering': 0.64},
-    'kernelcpd': {'ri': 0.15, 'covering': 0.11},
-    'pelt': {'ri': 0.5, 'f1': 0.63, 'covering': 0.46},
-    'clasp': {'ri': 0.26, 'covering': 0.21},
-    'kernelcpd_known_k': {'ri': 0.92, 'f1': 0.8, 'covering': 0.89},
-    'clasp_known_k': {'ri': 0.7, 'f1': 0.28, 'covering': 0.6},
+    'auto': {'f1': 0.95, 'frame_agreement': 0.9},
+    'arma': {'frame_agreement': 0.59, 'covering': 0.45},
+    'pca': {'frame_agreement': 0.63, 'covering': 0.54},
+    'kmeans': {'frame_agreement': 0.37, 'f1': 0.45, 'covering': 0.33},
+    'mlp': {'frame_agreement': 0.71, 'f1': 0.21, 'covering': 0.64},
+    'kernelcpd': {'frame_agreement': 0.15, 'covering': 0.11},
+    'pelt': {'frame_agreement': 0.5, 'f1': 0.63, 'covering': 0.46},
+    'clasp': {'frame_agreement': 0.26, 'covering': 0.21},
+    'kernelcpd_known_k': {'frame_agreement': 0.92, 'f1': 0.8, 'covering': 0.89},
+    'clasp_known_k': {'frame_agreement': 0.7, 'f1': 0.28, 'covering': 0.6},
 }
 
 

@@ -23,7 +23,7 @@ from mocapkit.io.labels import (
 )
 from mocapkit.segment.metrics import (
     F1Result,
-    accuracy_ri,
+    frame_agreement,
     covering,
     f1_margin,
     segments_from_cuts,
@@ -111,8 +111,8 @@ def test_segments_from_cuts() -> None:
 def test_invalid_cuts(cuts, n, match) -> None:
     for call in (
         lambda: segments_from_cuts(cuts, n),
-        lambda: accuracy_ri(cuts, [], n),
-        lambda: accuracy_ri([], cuts, n),
+        lambda: frame_agreement(cuts, [], n),
+        lambda: frame_agreement([], cuts, n),
         lambda: f1_margin(cuts, [], n, 1),
         lambda: covering([], cuts, n),
     ):
@@ -138,13 +138,13 @@ def test_invalid_margin_and_intervals() -> None:
 
 def test_ri_hand_examples() -> None:
     # n=10, ref [0,5)|[5,10), pred [0,4)|[4,10): overlaps [[4,1],[0,5]]; best 4 + 5 -> 9/10
-    assert accuracy_ri([4], [5], 10) == pytest.approx(0.9)
+    assert frame_agreement([4], [5], 10) == pytest.approx(0.9)
     # over-segmented: pred [0,2)|[2,5)|[5,8)|[8,10); best [0,5)-[2,5) = 3, [5,10)-[5,8) = 3 -> 6/10
-    assert accuracy_ri([2, 5, 8], [5], 10) == pytest.approx(0.6)
+    assert frame_agreement([2, 5, 8], [5], 10) == pytest.approx(0.6)
     # under-segmented: one predicted segment, ref [0,3)|[3,6)|[6,10): only the largest, 4 -> 4/10
-    assert accuracy_ri([], [3, 6], 10) == pytest.approx(0.4)
+    assert frame_agreement([], [3, 6], 10) == pytest.approx(0.4)
     # one segment on both sides
-    assert accuracy_ri([], [], 7) == 1.0
+    assert frame_agreement([], [], 7) == 1.0
 
 
 def test_ri_identity_and_extremes() -> None:
@@ -152,12 +152,12 @@ def test_ri_identity_and_extremes() -> None:
     for _ in range(50):
         n = int(rng.integers(1, 80))
         ref = _random_cuts(rng, n, 8)
-        assert accuracy_ri(ref, ref, n) == 1.0
+        assert frame_agreement(ref, ref, n) == 1.0
         # every frame its own segment: each reference segment gets one frame -> (k+1)/n
-        assert accuracy_ri(list(range(1, n)), ref, n) == pytest.approx((len(ref) + 1) / n)
+        assert frame_agreement(list(range(1, n)), ref, n) == pytest.approx((len(ref) + 1) / n)
         # a single predicted segment: the longest reference segment
         longest = max(e - s for s, e in segments_from_cuts(ref, n))
-        assert accuracy_ri([], ref, n) == pytest.approx(longest / n)
+        assert frame_agreement([], ref, n) == pytest.approx(longest / n)
 
 
 def test_ri_matches_brute_force() -> None:
@@ -166,9 +166,9 @@ def test_ri_matches_brute_force() -> None:
         n = int(rng.integers(2, 25))
         ref = _random_cuts(rng, n, 4)
         pred = _random_cuts(rng, n, 5)
-        ri = accuracy_ri(pred, ref, n)
+        ri = frame_agreement(pred, ref, n)
         assert ri == pytest.approx(_brute_ri(pred, ref, n))
-        assert ri == pytest.approx(accuracy_ri(ref, pred, n))  # the matching is symmetric
+        assert ri == pytest.approx(frame_agreement(ref, pred, n))  # the matching is symmetric
         assert 0 < ri <= 1
         assert (ri == 1.0) == (pred == ref)
 
@@ -490,6 +490,6 @@ def test_real_mocap6(shared_data: Path, trial: str, frames: int, cuts: list[int]
     lengths = np.diff(np.r_[0, ref.cuts, n])
     assert lengths.min() > 120
     # the reference scores perfectly against itself
-    assert accuracy_ri(ref.cuts, ref.cuts, n) == 1.0
+    assert frame_agreement(ref.cuts, ref.cuts, n) == 1.0
     assert covering(ref.cuts, ref.cuts, n) == 1.0
     assert f1_margin(ref.cuts, ref.cuts, n, 0, ref.intervals).f1 == 1.0

@@ -699,7 +699,7 @@ def segment(
     rate: SegRateOpt = None,
     downsample: DownsampleOpt = None,
 ) -> None:
-    """Cut a take into actions from its limb-bone angles (the ARMA method or a baseline)."""
+    """Cut a take into actions from its limb-bone angles (auto: the number of actions found without being told; the ARMA method; or a baseline)."""
     from mocapkit.jobs import segment_job
 
     rec = segment_job(input, asf=asf, method=method.value, labels=labels, joint=joint, train=train, rate=rate,
@@ -719,8 +719,10 @@ def segment(
         console.print(tab)
         if "scores" in rec:
             sc = rec["scores"]
-            console.print(f"against {labels.name}: RI {sc['ri']:.3f}, F1 {sc['f1']:.3f} "
-                          f"(P {sc['precision']:.3f}, R {sc['recall']:.3f}), Covering {sc['covering']:.3f}")
+            ri = "–" if sc["ri_paper"] is None else f"{sc['ri_paper']:.3f}"
+            console.print(f"against {labels.name}: F1 {sc['f1']:.3f} (P {sc['precision']:.3f}, R {sc['recall']:.3f}), "
+                          f"frame agreement {sc['frame_agreement']:.3f}, RI as the paper's authors compute it {ri}, "
+                          f"Covering {sc['covering']:.3f}")
     if plot is not None:
         err.print(f"wrote {plot}")
 
@@ -782,6 +784,10 @@ def segment_bench(
     else:
         print(md)
 
+
+from mocapkit.cli_similarity import similarity as _similarity  # noqa: E402 - imports the shared options only
+
+app.command("similarity")(_similarity)
 
 from mocapkit.cli_batch import batch_app  # noqa: E402 - the sub-app imports the shared options only
 

@@ -192,6 +192,7 @@ class Solver(str, Enum):
 
 
 class SegMethod(str, Enum):
+    auto = "auto"
     arma = "arma"
     pca = "pca"
     kmeans = "kmeans"

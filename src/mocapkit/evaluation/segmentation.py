@@ -23,10 +23,11 @@ import numpy as np
 
 from mocapkit.errors import MocapFormatError
 from mocapkit.io.labels import Reference, read_frame_labels, read_haca_labels
-from mocapkit.segment.metrics import accuracy_ri, covering, f1_margin
+from mocapkit.segment.metrics import covering, f1_margin, frame_agreement, ri_paper
 
 MOCAP_TAKES = ("86_01", "13_29", "13_30", "14_14")
-MOCAP_METHODS = ("arma", "pca", "kmeans", "mlp", "kernelcpd", "pelt", "clasp")
+#: ``every400`` is no method: it cuts every 400 frames (3.3 s at 120 Hz), to show what each metric makes of that.
+MOCAP_METHODS = ("auto", "arma", "every400", "pca", "kmeans", "mlp", "kernelcpd", "pelt", "clasp")
 TSSB_METHODS = ("arma", "pca", "kmeans", "kernelcpd", "pelt", "clasp")
 KNOWN_K_METHODS = ("kernelcpd", "clasp")
 PUBLISHED = ("ClaSP", "FLOSS", "BinSeg", "PELT")
@@ -41,6 +42,7 @@ class Take:
     pose: np.ndarray
     ref: Reference
     actions: np.ndarray  # per-frame action label
+    partition: np.ndarray | None = None  # the 8 limb-bone partition angles (Table 2)
 
     @property
     def n_frames(self) -> int:
@@ -58,7 +60,7 @@ def load_take(cmu_dir: Path, name: str) -> Take:
     ref = read_haca_labels(lab, n_frames=n) if name.startswith("86_") else read_frame_labels(lab, n_frames=n)
     feats = motion_features(motion)
     actions = np.asarray(ref.labels, dtype=object)[ref.frame_labels()]
-    return Take(name, feats.limbs, pose_features(motion), ref, actions)
+    return Take(name, feats.limbs, pose_features(motion), ref, actions, feats.partition)
 
 
 def find_pairs(items, label_suffix: str = ".labels.txt") -> list[tuple[Path, Path]]:
@@ -104,8 +106,16 @@ def load_user_takes(pairs, asf: Path | None = None, rate: float | None = None, l
     for name, motion, ref in motions:
         feats = motion_features(motion)
         actions = np.asarray(ref.labels, dtype=object)[ref.frame_labels()]
-        takes.append(Take(name, feats.limbs, pose_features(motion), ref, actions))
+        takes.append(Take(name, feats.limbs, pose_features(motion), ref, actions, feats.partition))
     return takes
+
+
+def auto_settings(rate_hz: float, downsample: int | None = None) -> dict:
+    """``AutoSegmenter`` settings at ``rate_hz``: keep the factor nearest 30 Hz (or ``downsample``); moving
+    statistics and the shortest segment span 1 s of kept samples."""
+    ds = downsample if downsample is not None else max(1, int(round(rate_hz / 30.0)))
+    one_s = max(2, int(round(rate_hz / ds)))
+    return {"downsample": ds, "width": one_s, "min_size": one_s}
 
 
 def rate_scaled(method: str, rate_hz: float) -> dict:
@@ -122,6 +132,8 @@ def rate_scaled(method: str, rate_hz: float) -> dict:
 
     if method == "arma":
         return {"downsample": max(1, int(round(rate_hz / 30.0)))}
+    if method == "auto":
+        return auto_settings(rate_hz)
     if method == "pca":
         step = fr(5)
         return {"k_init": fr(240), "step": step, "lag": step * max(1, round(fr(60) / step)), "min_segment": fr(120)}
@@ -130,6 +142,26 @@ def rate_scaled(method: str, rate_hz: float) -> dict:
     if method in ("kernelcpd", "pelt"):
         return {"min_size": max(2, fr(120))}
     return {}
+
+
+class RegularCutter:
+    """Cuts every ``step`` frames, whatever the take: the reference line of the metrics table."""
+
+    def __init__(self, step: int = 400):
+        self.step = int(step)
+
+    def fit_predict(self, X) -> np.ndarray:
+        return np.arange(self.step, len(X), self.step, dtype=np.int64)
+
+
+def features_for(method: str, take: Take) -> np.ndarray:
+    """What ``method`` sees: the pose for PCA (Barbič et al.), the 8 partition angles for ``auto``,
+    the 4 limb angles otherwise."""
+    if method == "pca":
+        return take.pose
+    if method == "auto":
+        return take.partition
+    return take.limbs
 
 
 def make_segmenter(method: str, take: Take | None = None, others: list[Take] | None = None, n_cuts: int | None = None):
@@ -141,6 +173,12 @@ def make_segmenter(method: str, take: Take | None = None, others: list[Take] | N
     kw = rate_scaled(method, take.ref.rate_hz) if take is not None else {}
     if method == "arma":
         return ARMASegmenter(**kw)
+    if method == "auto":
+        from mocapkit.segment.autok import AutoSegmenter
+
+        return AutoSegmenter(**kw)
+    if method == "every400":
+        return RegularCutter(max(1, int(round(400 * (take.ref.rate_hz if take is not None else 120.0) / 120.0))))
     cls = BASELINES[method]
     if method == "mlp":
         kw["train"] = [(t.limbs, t.actions) for t in (others or [])]
@@ -150,12 +188,14 @@ def make_segmenter(method: str, take: Take | None = None, others: list[Take] | N
 
 
 def score(pred, ref: Reference, margin_s: float = MARGIN_S) -> dict:
-    """RI, F1 (margin ``margin_s`` seconds at the reference's rate, or the annotators' interval) and Covering."""
+    """F1 (margin ``margin_s`` seconds at the reference's rate, or the annotators' interval), frame agreement,
+    the paper's RI (Eq. 33 as its authors compute it; None without reference cuts) and Covering."""
     n = ref.n_frames
     margin = int(round(margin_s * ref.rate_hz))
     f = f1_margin(pred, ref.cuts, n, margin, intervals=ref.intervals)
     return {
-        "ri": accuracy_ri(pred, ref.cuts, n),
+        "frame_agreement": frame_agreement(pred, ref.cuts, n),
+        "ri_paper": ri_paper(pred, ref.cuts, n) if len(ref.cuts) else None,
         "f1": f.f1,
         "precision": f.precision,
         "recall": f.recall,
@@ -179,7 +219,7 @@ def run_mocap(cmu_dir, methods=MOCAP_METHODS, known_k: bool = False, log=None) -
         for method, mode in jobs:
             k = len(take.ref.cuts) if mode == "known_k" else None
             seg = make_segmenter(method, take, others, n_cuts=k)
-            X = take.pose if method == "pca" else take.limbs
+            X = features_for(method, take)
             t0 = time.perf_counter()
             pred = seg.fit_predict(X)
             dt = time.perf_counter() - t0
@@ -189,7 +229,7 @@ def run_mocap(cmu_dir, methods=MOCAP_METHODS, known_k: bool = False, log=None) -
             row.update(score(pred, take.ref))
             rows.append(row)
             if log:
-                log(f"{take.name} {method}{' (known k)' if mode else ''}: RI {row['ri']:.3f} F1 {row['f1']:.3f} "
+                log(f"{take.name} {method}{' (known k)' if mode else ''}: frame agreement {row['frame_agreement']:.3f} RI (paper) {row['ri_paper']:.3f} F1 {row['f1']:.3f} "
                     f"Cov {row['covering']:.3f} cuts {len(pred)}/{len(take.ref.cuts)} {dt:.2f} s")
     return rows
 
@@ -268,13 +308,24 @@ def run_tssb(tssb_dir: Path, methods=TSSB_METHODS, limit: int | None = None, log
     return rows
 
 
+def _mean(values) -> float | None:
+    """Mean of the values that are not None (``ri_paper`` of a take without cuts); None if none is."""
+    v = [x for x in values if x is not None]
+    return float(np.mean(v)) if v else None
+
+
+def _f(x) -> str:
+    return "–" if x is None else f"{x:.3f}"
+
+
 def summarise(mocap_rows: list[dict], tssb_rows: list[dict]) -> dict:
-    """Per method: mean RI / F1 / Covering / seconds over the mocap takes; mean TSSB Covering."""
+    """Per method: mean F1 / frame agreement / the paper's RI / Covering / seconds over the mocap takes;
+    mean TSSB Covering."""
     out: dict = {"cmu": {}, "tssb": {}}
     for r in mocap_rows:
         key = r["method"] + (" (known k)" if r["mode"] == "known_k" else "")
         out["cmu"].setdefault(key, []).append(r)
-    out["cmu"] = {k: {m: float(np.mean([r[m] for r in v])) for m in ("ri", "f1", "covering", "seconds")}
+    out["cmu"] = {k: {m: _mean([r[m] for r in v]) for m in ("frame_agreement", "ri_paper", "f1", "covering", "seconds")}
                   for k, v in out["cmu"].items()}
     by = {}
     for r in tssb_rows:
@@ -290,21 +341,24 @@ def summarise(mocap_rows: list[dict], tssb_rows: list[dict]) -> dict:
 
 
 def markdown(mocap_rows: list[dict], tssb_rows: list[dict]) -> str:
-    """The README tables: per take and method RI / F1 / Covering / seconds; TSSB means."""
+    """The README tables: per take and method F1 / frame agreement / the paper's RI / Covering / seconds;
+    TSSB means."""
     lines = []
     if mocap_rows:
-        lines.append("| take | method | RI | F1 | Covering | cuts / true | s |")
-        lines.append("|---|---|---:|---:|---:|---:|---:|")
+        lines.append("| take | method | F1 | agreement | RI (paper) | Covering | cuts / true | s |")
+        lines.append("|---|---|---:|---:|---:|---:|---:|---:|")
         for r in mocap_rows:
             m = r["method"] + (" (known k)" if r["mode"] == "known_k" else "")
-            lines.append(f"| {r['take']} | {m} | {r['ri']:.3f} | {r['f1']:.3f} | {r['covering']:.3f} | "
-                         f"{r['n_cuts']} / {r['n_ref_cuts']} | {r['seconds']:.2f} |")
+            lines.append(f"| {r['take']} | {m} | {r['f1']:.3f} | {r['frame_agreement']:.3f} | {_f(r['ri_paper'])} | "
+                         f"{r['covering']:.3f} | {r['n_cuts']} / {r['n_ref_cuts']} | {r['seconds']:.2f} |")
         s = summarise(mocap_rows, [])["cmu"]
         lines.append("")
-        lines.append(f"| method (mean of {len({r['take'] for r in mocap_rows})} takes) | RI | F1 | Covering | s per take |")
-        lines.append("|---|---:|---:|---:|---:|")
+        lines.append(f"| method (mean of {len({r['take'] for r in mocap_rows})} takes) | F1 | agreement | RI (paper) | "
+                     "Covering | s per take |")
+        lines.append("|---|---:|---:|---:|---:|---:|")
         for m, v in s.items():
-            lines.append(f"| {m} | {v['ri']:.3f} | {v['f1']:.3f} | {v['covering']:.3f} | {v['seconds']:.2f} |")
+            lines.append(f"| {m} | {v['f1']:.3f} | {v['frame_agreement']:.3f} | {_f(v['ri_paper'])} | "
+                         f"{v['covering']:.3f} | {v['seconds']:.2f} |")
     if tssb_rows:
         s = summarise([], tssb_rows)
         lines.append("")

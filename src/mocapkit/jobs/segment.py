@@ -43,14 +43,14 @@ def check_options(method: str = "arma", train: list[str] | None = None, joint: l
     ``--downsample`` only for ``arma``, ``A=B`` pairs."""
     from mocapkit.segment import BASELINES
 
-    if method != "arma" and method not in BASELINES:
-        raise InvalidParameterError(f"--method {method!r}: one of arma, {', '.join(BASELINES)}")
+    if method not in ("auto", "arma") and method not in BASELINES:
+        raise InvalidParameterError(f"--method {method!r}: one of auto, arma, {', '.join(BASELINES)}")
     if method == "mlp" and not train:
         raise InvalidParameterError("--method mlp is supervised: give labelled takes with --train MOTION=LABELS")
     if train and method != "mlp":
         raise InvalidParameterError("--train is only for --method mlp")
-    if downsample is not None and method != "arma":
-        raise InvalidParameterError("--downsample is an option of --method arma")
+    if downsample is not None and method not in ("arma", "auto"):
+        raise InvalidParameterError("--downsample is an option of --method arma and auto")
     pairs(joint, "--joint")
     pairs(train, "--train")
 
@@ -89,6 +89,11 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
 
         ds = downsample if downsample is not None else max(1, int(round(rate_hz / 30.0)))
         seg = ARMASegmenter(downsample=ds)
+    elif method == "auto":
+        from mocapkit.evaluation.segmentation import auto_settings
+        from mocapkit.segment.autok import AutoSegmenter
+
+        seg = AutoSegmenter(**auto_settings(rate_hz, downsample))
     else:
         from mocapkit.segment import BASELINES
 
@@ -106,7 +111,7 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
 
         kw.update(rate_scaled(method, rate_hz))  # the baselines' 120 Hz frame counts at this rate
         seg = BASELINES[method](**kw)
-    X = pose_features(motion) if method == "pca" else feats.limbs
+    X = pose_features(motion) if method == "pca" else feats.partition if method == "auto" else feats.limbs
     with progress(f"segmenting {path.name} ({method})", None):
         cuts = seg.fit_predict(X)
     rec = {"job": "segment", "file": str(path), "kind": "skeletal", "method": method, "n_frames": motion.n_frames,

@@ -35,8 +35,12 @@ def float_param(value: Any, name: str, *, positive: bool = True) -> float:
     return v
 
 
-def optional_n_cuts(value: Any) -> int | None:
-    return None if value is None else int_param(value, "n_cuts", 0)
+def optional_n_cuts(value: Any) -> int | str | None:
+    """``None`` (the a-priori penalty), ``"auto"`` (the penalty of the cost curve,
+    :func:`mocapkit.segment.autok.curve_penalty`) or a known number of cuts."""
+    if value is None or value == "auto":
+        return value
+    return int_param(value, "n_cuts", 0)
 
 
 def optional_module(module: str, package: str, owner: str) -> Any:

@@ -282,8 +282,8 @@ class ARMASegmenter(Segmenter):
         window: int = 100,
         adf_lags: int = 4,
         adf_alpha: float = 0.05,
-        p_range: tuple[int, ...] = (1, 2, 3, 4),
-        q_range: tuple[int, ...] = (0, 1, 2),
+        p_range: tuple[int, ...] = (0, 1, 2, 3, 4, 5),
+        q_range: tuple[int, ...] = (0, 1, 2, 3, 4, 5),
         order_rtol: float = 0.01,
         r2_min: float = 0.6,
         z: float = 1.96,
@@ -294,6 +294,9 @@ class ARMASegmenter(Segmenter):
         ensemble_tol: int = 50,
         min_limbs: int = 2,
         r2_fit: str = "window",
+        differencing: str = "adf",
+        order: str = "aic",
+        cut: str = "max_error",
     ):
         if int(downsample) != downsample or downsample < 1:
             raise InvalidParameterError(f"downsample must be a positive integer, got {downsample}")
@@ -310,6 +313,13 @@ class ARMASegmenter(Segmenter):
             raise InvalidParameterError(
                 f"orders p <= {pm}, q <= {qm} need windows of at least {2 * (need + 1)} samples, got {window}"
             )
+        for name, value, allowed in (("differencing", differencing, ("adf", "fixed")),
+                                     ("order", order, ("aic", "best_f", "parsimonious")),
+                                     ("cut", cut, ("max_error", "min_sd"))):
+            if value not in allowed:
+                raise InvalidParameterError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
+        if r2_fit == "sequence" and order == "aic":
+            raise InvalidParameterError("r2_fit='sequence' fits one model per limb: use order='best_f' or 'parsimonious'")
         if r2_fit not in ("window", "sequence"):
             raise InvalidParameterError(f"r2_fit must be 'window' or 'sequence', got {r2_fit!r}")
         if not 0 < r2_min < 1:
@@ -335,6 +345,9 @@ class ARMASegmenter(Segmenter):
         self.ensemble_tol = int(ensemble_tol)
         self.min_limbs = int(min_limbs)
         self.r2_fit = r2_fit
+        self.differencing = differencing
+        self.order = order
+        self.cut = cut
 
     # -- steps -------------------------------------------------------------------------------
     def windows(self, m: int) -> list[tuple[int, int]]:
@@ -356,7 +369,8 @@ class ARMASegmenter(Segmenter):
                 f = fit_arma(z, p, q)
                 F[(p, q)] = float(np.mean(f.resid[0] ** 2))
         best = min(F.values())
-        ok = [o for o, v in F.items() if v <= best * (1 + self.order_rtol) + 1e-300]
+        rtol = self.order_rtol if self.order == "parsimonious" else 0.0
+        ok = [o for o, v in F.items() if v <= best * (1 + rtol) + 1e-300]
         order = min(ok, key=lambda o: (o[0] + o[1], o[1], o[0]))
         return order, F
 
@@ -382,64 +396,132 @@ class ARMASegmenter(Segmenter):
         split = before + after
         return int(np.lexsort((-score_err, -split, sd))[0])
 
+    def _stationary(self, w: np.ndarray) -> bool:
+        """Step 4: the ADF test of one window rejects a unit root (a constant window, or one too short
+        for the regression, counts as stationary: it is left as it is)."""
+        nobs = w.size - 1 - self.adf_lags
+        if np.ptp(w) == 0 or nobs - (self.adf_lags + 2) < 10:
+            return True
+        stat = adf_statistic(w, self.adf_lags)[0]
+        return not np.isfinite(stat) or bool(stat < adf_critical_value(nobs, self.adf_alpha))
+
+    def window_models(self, x: np.ndarray) -> tuple[list, list]:
+        """Steps 2–4 on one channel: ``bounds`` (windows of raw samples) and, per window, ``(series,
+        first sample, differencing order)`` of what is modelled, or None for a window the test still
+        finds non-stationary after differencing (``differencing="adf"``: no cut there, as in the
+        authors' code)."""
+        d = self.diff_order
+        if self.differencing == "adf":
+            bounds = self.windows(x.size)
+            out = []
+            for s, e in bounds:
+                w = x[s:e]
+                if self._stationary(w):
+                    out.append((w, s, 0))
+                    continue
+                dw = np.diff(w, n=d) if d else w
+                out.append((dw, s + d, d) if d and self._stationary(dw) else None)
+            return bounds, out
+        z = np.diff(x, n=d) if d else x.copy()  # z[i] belongs to sample i + d
+        zb = self.windows(z.size)
+        extra = np.array([not self._stationary(z[s:e]) for s, e in zb], dtype=bool)
+        series = self.window_series(z, zb, extra)
+        bounds = [(s + d, e + d) for s, e in zb]
+        return bounds, [(v, off + d, d + int(extra[k])) for k, (v, off) in enumerate(series)]
+
+    def _aic_orders(self, series: list) -> list:
+        """Per window, the (p, q) of the grid with the least AIC = m·ln σ̂² + 2(p + q + 1) (the authors'
+        ``armax`` + ``aic`` over p, q ≤ 5), σ̂² over the samples every order of the grid predicts."""
+        grid = [(p, q) for p in self.p_range for q in self.q_range if p + q > 0]
+        tail = max((max(2 * (p + q), p + q + 2) + q) if q else p for p, q in grid)
+        best = [None] * len(series)
+        by_len: dict[int, list[int]] = {}
+        for k, item in enumerate(series):
+            if item is not None:
+                by_len.setdefault(item[0].size, []).append(k)
+        for m, ks in by_len.items():
+            stack = np.stack([series[k][0] for k in ks])
+            scores = np.full((len(ks), len(grid)), np.inf)
+            for j, (p, q) in enumerate(grid):
+                try:
+                    f = fit_arma(stack, p, q)
+                except InvalidParameterError:
+                    continue
+                r = f.resid[:, tail - f.start:]
+                s2 = np.maximum((r ** 2).mean(axis=1), 1e-300)
+                scores[:, j] = r.shape[1] * np.log(s2) + 2 * (p + q + 1)
+            for row, k in enumerate(ks):
+                best[k] = grid[int(np.argmin(scores[row]))]
+        return best
+
     def _channel(self, x: np.ndarray) -> dict:
         """Steps 2–9 on one downsampled channel; cut positions are downsampled sample indices."""
         d = self.diff_order
-        z = np.diff(x, n=d) if d else x.copy()  # z[i] belongs to sample i + d
-        bounds = self.windows(z.size)
-        # step 4: stationarity per window; windows failing it are differenced once more
-        extra = np.zeros(len(bounds), dtype=bool)
-        if self.r2_fit == "window":
-            for k, (s, e) in enumerate(bounds):
-                seg = z[s:e]
-                nobs = seg.size - 1 - self.adf_lags
-                if np.ptp(seg) == 0 or nobs - (self.adf_lags + 2) < 10:
-                    continue  # constant, or too short for the regression: left as it is
-                stat = adf_statistic(seg, self.adf_lags)[0]
-                if np.isfinite(stat):
-                    extra[k] = not (stat < adf_critical_value(nobs, self.adf_alpha))
-        # step 6: order by F (Eq. 25) on the whole differenced sequence
-        (p, q), F = self.select_order(z)
-        # step 5/7: per-window fits and R² (Eq. 28-29), batched per window length
-        scale = max(float(np.abs(z).max()) if z.size else 0.0, np.finfo(float).tiny)
         if self.r2_fit == "sequence":
-            return self._channel_sequence(z, bounds, (p, q), F, scale)
-        series = self.window_series(z, bounds, extra)
-        fits: list = [None] * len(bounds)
-        groups: dict[int, list[int]] = {}
-        for k, (seg, _) in enumerate(series):
-            groups.setdefault(seg.size, []).append(k)
-        for _, ks in groups.items():
-            stack = np.stack([series[k][0] for k in ks])
-            f = fit_arma(stack, p, q)
+            z = np.diff(x, n=d) if d else x.copy()
+            (p, q), F = self.select_order(z)
+            scale = max(float(np.abs(z).max()) if z.size else 0.0, np.finfo(float).tiny)
+            return self._channel_sequence(z, self.windows(z.size), (p, q), F, scale)
+        bounds, series = self.window_models(x)
+        F = None
+        if self.order == "aic":
+            orders = self._aic_orders(series)
+        else:  # one order per limb, by Eq. 25 on the whole differenced sequence
+            (p, q), F = self.select_order(np.diff(x, n=d) if d else x)
+            orders = [(p, q) if it is not None else None for it in series]
+        scale = max(float(np.abs(np.diff(x, n=d) if d else x).max()), np.finfo(float).tiny)
+        # step 5/7: per-window fits and R² (Eq. 28-29), batched per (length, order)
+        fits: list = [None] * len(series)
+        groups: dict[tuple, list[int]] = {}
+        for k, item in enumerate(series):
+            if item is not None:
+                groups.setdefault((item[0].size, orders[k]), []).append(k)
+        for (_, (p, q)), ks in groups.items():
+            f = fit_arma(np.stack([series[k][0] for k in ks]), p, q)
             for row, k in enumerate(ks):
                 fits[k] = (f, row)
-        r2 = np.empty(len(bounds))
-        for k, (seg, off) in enumerate(series):
-            f, row = fits[k]
-            r2[k] = _r2(seg[f.start:], f.resid[row])
-        # steps 8-9: fitness SD and the cut in windows below the R² threshold
-        sd_all = np.ones(z.size + d)
-        cuts = []
-        for k in np.flatnonzero(r2 < self.r2_min):
-            seg, off = series[k]
-            use_prev = k > 0 and extra[k] == extra[k - 1]
-            if use_prev:
-                f, row = fits[k - 1]
-                pred = predict_one_step(f, row, seg, series[k - 1][0])
-                err = seg - pred
-                idx = np.arange(seg.size)
-            else:
+        r2 = np.full(len(series), np.nan)
+        for k, item in enumerate(series):
+            if item is not None:
                 f, row = fits[k]
+                r2[k] = _r2(item[0][f.start:], f.resid[row])
+        # steps 8-9: fitness SD and the cut in windows below the R² threshold
+        sd_all = np.ones(x.size)
+        cuts = []
+        windows = []
+        for k, item in enumerate(series):
+            if item is None:
+                continue
+            seg, first, dk = item
+            f, row = fits[k]
+            windows.append({"start": int(first), "stop": int(first + seg.size), "series": seg,
+                            "resid": f.resid[row], "order": orders[k], "diff": int(dk), "r2": float(r2[k])})
+            if not r2[k] < self.r2_min:
+                continue
+            prev = series[k - 1] if k > 0 else None
+            # "is the current model suitable to continue to describe the subsequent sequence" (Sec. 5.3):
+            # the preceding window's model, where it models the same contiguous series
+            use_prev = self.differencing == "fixed" and prev is not None and prev[2] == dk
+            if use_prev:
+                fp, rowp = fits[k - 1]
+                err = seg - predict_one_step(fp, rowp, seg, prev[0])
+                idx = np.arange(seg.size)
+                sigma = max(float(np.sqrt(fp.sigma2[rowp])), 1e-12 * scale)
+            else:
                 err = f.resid[row]
                 idx = np.arange(f.start, seg.size)
-            sigma = max(float(np.sqrt(f.sigma2[row])), 1e-12 * scale)
+                sigma = max(float(np.sqrt(f.sigma2[row])), 1e-12 * scale)
             sd = self.sd(err, sigma)
-            best = idx[self._cut_in(sd, np.abs(err) / sigma)]
-            pos = off + best + d  # back to the downsampled sample index
-            sd_all[off + idx + d] = sd
-            cuts.append(int(pos))
-        return {"order": (p, q), "F": F, "r2": r2, "bounds": bounds, "extra": extra, "sd": sd_all, "cuts": cuts}
+            sd_all[first + idx] = sd
+            if self.cut == "max_error":
+                best = idx[int(np.argmax(np.abs(err)))]
+            else:
+                best = idx[self._cut_in(sd, np.abs(err) / sigma)]
+            cuts.append(int(first + best))
+        order = orders[0] if len({o for o in orders if o is not None}) == 1 else None
+        return {"order": order, "orders": orders, "F": F, "r2": r2, "bounds": bounds, "sd": sd_all,
+                "cuts": cuts, "windows": windows,
+                "extra": np.array([it is not None and it[2] > d for it in series], dtype=bool)}
 
     def _channel_sequence(self, z, bounds, order, F, scale) -> dict:
         """``r2_fit="sequence"``: one fit of the whole differenced sequence, split into windows."""

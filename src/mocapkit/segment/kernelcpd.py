@@ -40,7 +40,9 @@ class KernelCPDSegmenter(Segmenter):
     min_size
         Shortest segment in input frames. Default ``120`` (1 s at 120 Hz).
     n_cuts
-        ``None`` (default): the number of cuts is unknown and chosen by the penalty. An integer: the
+        ``None`` (default): the number of cuts is unknown and chosen by the a-priori penalty.
+        ``"auto"``: the penalty is read off this signal's own cost curve without labels
+        (:func:`mocapkit.segment.autok.curve_penalty`, the slope heuristic). An integer: the
         known number of cuts; exactly that many are returned if ``min_size`` allows it (otherwise as
         many as it allows).
     downsample
@@ -107,7 +109,15 @@ class KernelCPDSegmenter(Segmenter):
         self.n_frames_ = n
         bkps: list[int] = []
         max_cuts = m // size - 1
-        if self.n_cuts is not None:
+        if self.n_cuts == "auto":
+            from mocapkit.segment.autok import curve_penalty
+
+            pen = curve_penalty(z, size, "rbf", gamma) if max_cuts >= 1 else None
+            self.pen_ = pen
+            if pen is not None and pen > 0.0:
+                algo = rpt.KernelCPD(kernel="rbf", min_size=size, params={"gamma": gamma})
+                bkps = algo.fit(z).predict(pen=pen)
+        elif self.n_cuts is not None:
             k = min(self.n_cuts, max_cuts)
             if k > 0 and np.ptp(z) > 0:  # a constant signal has no change to place
                 algo = rpt.KernelCPD(kernel="rbf", min_size=size, params={"gamma": gamma})

@@ -4,8 +4,10 @@ Every function takes segmentations as *cuts*: sorted 0-based frames ``c`` with `
 starting a new segment, plus the number of frames ``n``. Cuts may be given in any order (they are
 sorted) but must be distinct integers inside ``(0, n)``; an empty list means one segment.
 
-* :func:`accuracy_ri` — the seed paper's accuracy ``RI = 1 - ER``, as frame-level agreement under
-  the best one-to-one matching of segments;
+* :func:`ri_paper` — the seed paper's accuracy RI of Eq. 33 as its authors compute it (per reference
+  cut, the nearest found cut's error over the length of the reference segment it ends);
+* :func:`frame_agreement` — frame-level agreement under the best one-to-one matching of segments (a
+  score that neither over- nor under-segmentation can inflate; it is *not* the paper's RI);
 * :func:`f1_margin` — precision, recall and F1 of the cuts, a prediction counting when it falls
   within a margin (or an annotator interval) of a reference cut, with one-to-one matching;
 * :func:`covering` — the segmentation Covering of the TSSB benchmark (Ermshaus et al., DMKD 2023).
@@ -25,9 +27,10 @@ from mocapkit.errors import InvalidParameterError
 
 __all__ = [
     "F1Result",
-    "accuracy_ri",
     "covering",
     "f1_margin",
+    "frame_agreement",
+    "ri_paper",
     "segments_from_cuts",
 ]
 
@@ -138,20 +141,70 @@ def segments_from_cuts(cuts, n: int) -> list[tuple[int, int]]:
     return [(int(s), int(e)) for s, e in zip(b[:-1], b[1:])]
 
 
-def accuracy_ri(pred_cuts, ref_cuts, n: int) -> float:
-    """Segmentation accuracy ``RI = 1 - ER`` of the seed paper (its Eq. 33), at frame level.
+def ri_paper(pred_cuts, ref_cuts, n: int) -> float:
+    """The seed paper's accuracy RI (Eq. 33) as its authors compute it.
+
+    Eq. 33 reads "RI = 1 − ER = 1 − |s − N| / N … N is the actual number of frames" of the action; the
+    authors' published ``main.m`` computes, for each reference cut ``True(q)`` (in order, with
+    ``True(0) = 0``), the found cut ``FS(q)`` nearest to it and
+
+        ``acc(q) = 1 − |FS(q) − True(q)| / (True(q) − True(q−1))``,
+
+    and the paper reports their mean. Ties between two equally near found cuts go to the earlier one
+    (MATLAB's ``min`` returns the first). ``acc(q)`` is not clipped: a found cut farther away than
+    the reference segment is long gives a negative term, as in ``main.m``.
+
+    Only the distance from each reference cut to the *nearest* found cut counts, so extra cuts cost
+    nothing: the metric rewards over-segmentation (cutting every 400 frames scores about 0.83 on the
+    shared CMU takes, more than any method that finds the actions; ``segment-bench`` reports it).
+    Use :func:`f1_margin` or :func:`frame_agreement` to compare methods.
+
+    Parameters
+    ----------
+    pred_cuts, ref_cuts
+        Predicted and reference 0-based cuts, distinct integers in ``(0, n)``; at least one
+        reference cut.
+    n
+        Number of frames.
+
+    Returns
+    -------
+    float
+        The mean of ``acc(q)``, at most 1; 0 when nothing was found (no term can be computed, and
+        finding nothing earns nothing).
+
+    Raises
+    ------
+    InvalidParameterError
+        If ``n`` or the cuts are invalid, or there is no reference cut (the formula has no term).
+    """
+    n = _check_n(n)
+    pred = _check_cuts(pred_cuts, n, "pred_cuts")
+    ref = _check_cuts(ref_cuts, n, "ref_cuts")
+    if ref.size == 0:
+        raise InvalidParameterError("ri_paper needs at least one reference cut (Eq. 33 has one term per cut)")
+    if pred.size == 0:
+        return 0.0
+    dist = np.abs(pred[None, :] - ref[:, None])
+    fs = pred[np.argmin(dist, axis=1)]  # argmin: the first (earliest) of equally near cuts
+    length = np.diff(np.concatenate(([0], ref)))
+    return float(np.mean(1.0 - np.abs(fs - ref) / length))
+
+
+def frame_agreement(pred_cuts, ref_cuts, n: int) -> float:
+    """Frame-level agreement of two segmentations (not the paper's RI: see :func:`ri_paper`).
 
     Reference and predicted segments are matched one-to-one so that the total number of frames
     shared by matched pairs is maximal (an assignment problem, solved exactly with
-    :func:`scipy.optimize.linear_sum_assignment` on the overlap matrix). ``RI`` is that total
+    :func:`scipy.optimize.linear_sum_assignment` on the overlap matrix). The score is that total
     divided by ``n``: the fraction of frames whose reference segment is matched to the predicted
-    segment containing them. ``ER = 1 - RI`` is the fraction of mis-segmented frames.
+    segment containing them; one minus it is the fraction of mis-segmented frames.
 
     Unmatched segments count entirely as errors, so neither over-segmentation (extra predicted
     segments are left unmatched; predicting every frame as its own segment gives
-    ``RI = (len(ref_cuts) + 1) / n``) nor under-segmentation (one predicted segment can only be
-    credited to one reference segment) can inflate the score. ``RI = 1`` exactly when the two
-    segmentations are equal.
+    ``(len(ref_cuts) + 1) / n``) nor under-segmentation (one predicted segment can only be
+    credited to one reference segment) can inflate the score. It is 1 exactly when the two
+    segmentations are equal. (Earlier versions of mocapkit called this score ``accuracy_ri``.)
 
     Parameters
     ----------
@@ -163,7 +216,7 @@ def accuracy_ri(pred_cuts, ref_cuts, n: int) -> float:
     Returns
     -------
     float
-        ``RI`` in ``[0, 1]`` (in fact ``> 0``: some pair always overlaps).
+        Agreement in ``[0, 1]`` (in fact ``> 0``: some pair always overlaps).
 
     Raises
     ------

@@ -116,7 +116,9 @@ class PELTSegmenter(Segmenter):
         4,579-frame take then takes about 1 s with ``"l2"`` and 2 s with ``"rbf"`` even without any
         change (no pruning); the work grows as ``(m / jump)^2`` in that worst case.
     n_cuts
-        ``None`` (default): unknown, chosen by the penalty. An integer: the known number of cuts,
+        ``None`` (default): unknown, chosen by the a-priori penalty. ``"auto"``: the penalty is read
+        off this signal's own cost curve without labels (:func:`mocapkit.segment.autok.curve_penalty`,
+        the slope heuristic). An integer: the known number of cuts,
         returned exactly when ``min_size`` and ``jump`` allow it.
     downsample
         Analyse every ``downsample``-th frame only; cuts are mapped back (``cut * downsample``).
@@ -252,7 +254,14 @@ class PELTSegmenter(Segmenter):
             cost = _prefix_cost(rpt.base.BaseCost, self.model, gamma)
             algo = rpt.Pelt(custom_cost=cost, min_size=size, jump=self.jump).fit(z)
             auto = auto_penalty(z, size, gamma, self.pen_scale)
-            if self.n_cuts is not None:
+            if self.n_cuts == "auto":
+                from mocapkit.segment.autok import curve_penalty
+
+                pen = curve_penalty(z, size, self.model, gamma)
+                self.pen_ = 0.0 if pen is None else pen
+                if pen is not None and pen > 0.0:
+                    bkps = algo.predict(pen=pen)
+            elif self.n_cuts is not None:
                 if self.n_cuts > 0:
                     pen0 = self.pen if self.pen is not None else auto
                     if pen0 <= 0.0:  # no variation: any penalty is as good as another
