@@ -57,8 +57,8 @@ def test_cost_curve_cuts_equal_ruptures_kernelcpd():
 @pytest.mark.parametrize("n_changes", range(1, 9))
 def test_the_number_of_changes_is_recovered_on_synthetic_signals(n_changes):
     """On signals the constants were not calibrated on (other seeds), k is right in most cases and the
-    cuts are where the changes are (measured: 38 of 40 right over 1-8 changes; the two misses are at
-    8 changes, where real changes start to fall inside the range the noise gain is read from)."""
+    cuts are where the changes are (measured: 39 of 40 right over 1-8 changes; the miss is at 8
+    changes, where real changes start to fall inside the range the noise gain is read from)."""
     right, f1 = 0, []
     for seed in range(5):
         x, cuts = motion_like(n_changes, seed=90_000 + 100 * n_changes + seed)
@@ -77,11 +77,12 @@ def test_no_change_gives_no_cut():
 
 def test_choose_k_minimises_the_penalised_cost():
     costs = np.array([100.0, 60, 30, 27, 25, 23.5, 22, 20.6, 19.3, 18, 16.8, 15.6, 14.5])
-    pen = slope_penalty(costs)
+    pen = slope_penalty(costs, 3.5, (0.25, 0.5))
     gains = -np.diff(costs)
     a, b = int(0.25 * gains.size), int(0.5 * gains.size)
     assert pen == pytest.approx(3.5 * np.median(gains[a:b]))
-    k = choose_k(costs)
+    assert slope_penalty(costs) == pytest.approx(4.0 * np.median(gains[int(0.3 * gains.size):int(0.6 * gains.size)]))
+    k = choose_k(costs, 3.5, (0.25, 0.5))
     assert k == int(np.argmin(costs + pen * np.arange(costs.size))) == 2
     assert choose_k([5.0, 1.0]) == 1 and choose_k([5.0, 5.0]) == 0
     for bad in ([], [np.nan, 1.0], [[1.0, 2.0]]):
@@ -142,3 +143,29 @@ def test_auto_on_the_shared_takes_needs_no_labels(shared_data):
         seg = make_segmenter("auto", take)
         f1.append(score(seg.fit_predict(take.partition), take.ref)["f1"])
     assert np.mean(f1) >= 0.75, f1
+
+
+def test_cost_curve_over_candidates_equals_brute_force_over_their_subsets():
+    rng = np.random.default_rng(4)
+    z = np.concatenate([rng.normal(0, 1, (30, 2)), rng.normal(2, 1, (30, 2)), rng.normal(-1, 1, (30, 2))])
+    cand = [12, 29, 33, 47, 61, 70, 75]
+    curve = cost_curve(z, 5, 7, "l2", candidates=cand)
+    for k in range(curve.k_max + 1):
+        best = min(
+            (sum(_seg_cost(z, s, e, "l2", None) for s, e in zip((0, *c), (*c, 90))), c)
+            for c in itertools.combinations(cand, k) if min(np.diff((0, *c, 90))) >= 5
+        )
+        assert curve.costs[k] == pytest.approx(best[0], abs=1e-9)
+        assert tuple(curve.cuts(k).tolist()) == best[1]
+    assert curve.k_max == 6  # all 7 would leave 29..33, shorter than 5 samples
+
+
+def test_arma_select_auto_keeps_a_subset_of_its_candidates():
+    from mocapkit.segment.arma import ARMASegmenter
+
+    x, _ = motion_like(3, d=4, seed=11)
+    seg = ARMASegmenter(downsample=1, select="auto")
+    cuts = seg.fit_predict(x)
+    pooled = ARMASegmenter(downsample=1).fit(x)
+    candidates = set(pooled.ensemble([ch["cuts"] for ch in pooled.channels_], 1))
+    assert set(cuts.tolist()) <= candidates

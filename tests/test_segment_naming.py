@@ -153,8 +153,9 @@ def expected_letters(order):
     return tuple(class_letter(seen.setdefault(c, len(seen))) for c in order)
 
 
+@pytest.mark.parametrize("spread", ["blocks", "halves"])
 @pytest.mark.parametrize("seed", range(5))
-def test_three_distinct_processes_recovered(seed):
+def test_three_distinct_processes_recovered(seed, spread):
     """Three clearly different processes (offsets 3 apart), segments in a random order: the classes
     and the letters are exactly the processes in order of appearance."""
     rng = np.random.default_rng(seed)
@@ -162,7 +163,7 @@ def test_three_distinct_processes_recovered(seed):
     procs = [(p[0] + 3.0 * i, *p[1:]) for i, p in enumerate(procs)]
     order = [0, 1, 0, 2] + rng.integers(0, 3, 5).tolist()
     x, cuts = take_from(rng, procs, order)
-    r = name_actions(x, cuts)
+    r = name_actions(x, cuts, spread=spread)
     assert r.letters[0] == expected_letters(order)
     assert r.letters[0][:4] == ("A", "B", "A", "C")
     assert r.n_classes == 3 and r.rule == "threshold"
@@ -172,11 +173,12 @@ def test_three_distinct_processes_recovered(seed):
     assert r.frame_classes(0).shape == (x.shape[0],)
 
 
+@pytest.mark.parametrize("spread", ["blocks", "halves"])
 @pytest.mark.parametrize("k", [1, 2, 3, 4, 5])
-def test_number_of_classes_found_on_synthetic(k):
+def test_number_of_classes_found_on_synthetic(k, spread):
     """Random processes (not made distinct on purpose), 3 segments each in random order: the
-    threshold rule finds exactly k classes in at least 80 % of 20 draws, and the silhouette rule
-    (k >= 2) is scored the same way as a comparison."""
+    threshold rule finds exactly k classes in at least 80 % of 20 draws, with either spread, and the
+    frame accuracy averages 0.9 or more."""
     rng = np.random.default_rng(1000 + k)
     hits = 0
     accs = []
@@ -184,11 +186,27 @@ def test_number_of_classes_found_on_synthetic(k):
         procs = [process(rng) for _ in range(k)]
         order = rng.permutation(np.repeat(np.arange(k), 3))
         x, cuts = take_from(rng, procs, order)
-        r = name_actions(x, cuts)
+        r = name_actions(x, cuts, spread=spread)
         hits += r.n_classes == k
         accs.append(frame_accuracy(r.frame_classes(0), np.repeat(order, np.diff(r.bounds[0]))))
     assert hits >= 16, f"k={k}: right number of classes in {hits}/20 draws"
     assert np.mean(accs) >= 0.9
+
+
+def test_block_spread_ignores_the_cuts_and_survives_short_segments():
+    """The block spread is a property of the takes, not of the cuts; cutting three distinct processes
+    every 150 frames (segments shorter than most of the true ones) still names >= 90 % of the frames
+    right, while the half spread grows as the segments shrink."""
+    rng = np.random.default_rng(21)
+    procs = [(p[0] + 3.0 * i, *p[1:]) for i, p in enumerate(process(rng) for _ in range(3))]
+    order = [0, 1, 2, 0, 2, 1]
+    x, cuts = take_from(rng, procs, order)
+    truth = np.repeat(order, np.diff(np.concatenate([[0], cuts, [x.shape[0]]])))
+    regular = np.arange(150, x.shape[0], 150)
+    a, b = name_actions(x, cuts), name_actions(x, regular)
+    assert a.spread == pytest.approx(b.spread, rel=1e-12)
+    assert frame_accuracy(b.frame_classes(0), truth) >= 0.9
+    assert name_actions(x, regular, spread="halves").spread > name_actions(x, cuts, spread="halves").spread
 
 
 def test_same_letters_across_takes():
@@ -268,7 +286,7 @@ X100 = np.random.default_rng(0).normal(size=(100, 4))
         (np.zeros((0, 4)), []),  # empty take
         ([X100, X100[:, :3]], [[50], [50]]),  # different feature counts
         (np.where(np.arange(400).reshape(100, 4) == 7, np.nan, X100), [50]),
-        (X100[:20], [5, 10, 15]),  # every segment shorter than 16 frames
+        (X100[:15], [5, 10]),  # a take shorter than 16 frames: no spread measurable
     ],
 )
 def test_bad_input_refused(feats, cuts):
@@ -276,8 +294,18 @@ def test_bad_input_refused(feats, cuts):
         name_actions(feats, cuts)
 
 
+def test_short_segments():
+    """Segments of 5 frames: named with the block spread (the take is long enough), refused with the
+    half spread (no segment of 16 frames)."""
+    r = name_actions(X100[:20], [5, 10, 15])
+    assert len(r.letters[0]) == 4
+    with pytest.raises(InvalidParameterError, match="16 frames"):
+        name_actions(X100[:20], [5, 10, 15], spread="halves")
+
+
 @pytest.mark.parametrize("opts", [{"distance": "euclid"}, {"rule": "gap"}, {"n_classes": 0}, {"n_classes": 5},
-                                  {"threshold_scale": -1.0}, {"max_classes": 1}, {"gamma": float("nan")}])
+                                  {"threshold_scale": -1.0}, {"max_classes": 1}, {"gamma": float("nan")},
+                                  {"spread": "quartiles"}, {"block": 0}, {"block": 2.5}])
 def test_bad_options_refused(opts):
     with pytest.raises(InvalidParameterError):
         name_actions(X100, [30, 60], **opts)

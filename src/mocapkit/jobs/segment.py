@@ -74,7 +74,8 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
     if labels is None and labels_beside and path.with_name(path.stem + ".labels.txt").is_file():
         labels = path.with_name(path.stem + ".labels.txt")
     train_files = [Path(x.strip()) for it in train or [] for x in it.split("=", 1)]
-    check_outputs(path, (plot, "--plot"), inputs=(asf, labels, *train_files))
+    arma_plot = None if plot is None or method != "arma" else plot.with_name(plot.stem + "_arma.png")
+    check_outputs(path, (plot, "--plot"), (arma_plot, "--plot (ARMA windows)"), inputs=(asf, labels, *train_files))
     motion = load_motion(path, asf=asf, rate=rate)
     rate_hz = float(motion.rate)
     warnings = list(motion.meta.get("warnings", []))
@@ -128,5 +129,11 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
         plot_segmentation(feats.limbs, rate_hz, cuts, plot, ref_cuts=None if ref is None else ref.cuts,
                           names=list(LIMB_NAMES), title=f"{path.name}: {method}")
         rec["outputs"].append(output_entry(plot, "png"))
+    if arma_plot is not None:  # per limb: ACF, PACF and Ljung-Box of the windows' residuals (Sec. 4.3, 4.5)
+        from mocapkit.plot import plot_arma_diagnostics
+
+        plot_arma_diagnostics([ch["windows"] for ch in seg.channels_], list(LIMB_NAMES), arma_plot,
+                              title=f"{path.name}: ARMA windows")
+        rec["outputs"].append(output_entry(arma_plot, "png"))
     rec["recording"] = recording(motion, path)
     return rec

@@ -297,6 +297,8 @@ class ARMASegmenter(Segmenter):
         differencing: str = "adf",
         order: str = "aic",
         cut: str = "max_error",
+        select: str = "ensemble",
+        stats_width: int = 30,
     ):
         if int(downsample) != downsample or downsample < 1:
             raise InvalidParameterError(f"downsample must be a positive integer, got {downsample}")
@@ -315,7 +317,8 @@ class ARMASegmenter(Segmenter):
             )
         for name, value, allowed in (("differencing", differencing, ("adf", "fixed")),
                                      ("order", order, ("aic", "best_f", "parsimonious")),
-                                     ("cut", cut, ("max_error", "min_sd"))):
+                                     ("cut", cut, ("max_error", "min_sd")),
+                                     ("select", select, ("ensemble", "auto"))):
             if value not in allowed:
                 raise InvalidParameterError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
         if r2_fit == "sequence" and order == "aic":
@@ -348,6 +351,10 @@ class ARMASegmenter(Segmenter):
         self.differencing = differencing
         self.order = order
         self.cut = cut
+        self.select = select
+        if int(stats_width) != stats_width or stats_width < 2:
+            raise InvalidParameterError(f"stats_width must be an integer >= 2, got {stats_width}")
+        self.stats_width = int(stats_width)
 
     # -- steps -------------------------------------------------------------------------------
     def windows(self, m: int) -> list[tuple[int, int]]:
@@ -583,6 +590,28 @@ class ARMASegmenter(Segmenter):
             close(group)
         return out
 
+    def select_cuts(self, x: np.ndarray, candidates: list[int]) -> list[int]:
+        """``select="auto"``: the number of cuts chosen without labels among the ``candidates`` (every
+        ensemble group, one limb enough). The limb angles' moving mean and standard deviation over
+        ``stats_width`` samples are standardised; the penalty per cut is the slope heuristic of their
+        unrestricted kernel cost curve (:func:`mocapkit.segment.autok.slope_penalty`), and the cuts
+        are the subset of the candidates minimising kernel cost + penalty × cuts (exact, by
+        :func:`mocapkit.segment.autok.cost_curve` with ``candidates``)."""
+        from mocapkit.segment._common import standardise
+        from mocapkit.segment.autok import cost_curve, slope_penalty, window_stats
+
+        if not candidates or np.ptp(x, axis=0).max() == 0:
+            return []
+        f = standardise(window_stats(x, self.stats_width))
+        size = max(2, self.stats_width)
+        full = cost_curve(f, size, 30, "rbf")
+        pen = slope_penalty(full.costs)
+        if pen is None:
+            return []
+        curve = cost_curve(f, size, 30, "rbf", candidates=candidates)
+        k = int(np.argmin(curve.costs + pen * np.arange(curve.costs.size)))
+        return [int(c) for c in curve.cuts(k)]
+
     # -- API -----------------------------------------------------------------------------------
     def fit(self, X) -> "ARMASegmenter":
         X = as_signal(X)
@@ -598,7 +627,10 @@ class ARMASegmenter(Segmenter):
         self.channels_ = [self._channel(x[:, j]) for j in range(x.shape[1])]
         limb = [ch["cuts"] for ch in self.channels_]
         moving = int(sum(np.ptp(x[:, j]) > 0 for j in range(x.shape[1])))
-        merged = self.ensemble(limb, max(moving, 1))
+        if self.select == "auto":
+            merged = self.select_cuts(x, self.ensemble(limb, 1))
+        else:
+            merged = self.ensemble(limb, max(moving, 1))
         self.limb_cuts_ = [clean_cuts(np.asarray(c) * self.downsample, n) for c in limb]
         self.cuts_ = clean_cuts(np.asarray(merged, dtype=np.int64) * self.downsample, n)
         return self

@@ -10,10 +10,11 @@ action), and returns the ``k`` minimising ``C(k) + c · noise · k``. It is the 
 model selection (Baudry, Maugis and Michel, "Slope heuristics: overview and implementation",
 Stat. Comput. 22, 2012) with the slope of the spurious part estimated robustly by a median.
 
-The constants ``c = 3.5`` and ``noise_range = (0.25, 0.5)`` were calibrated on synthetic signals only
-(:func:`mocapkit.segment.synthetic.motion_like`, 12 signals for each of 0–8 changes, 8 channels at
-30 Hz): they recover the exact number of changes in 97.2 % of them (mean F1 at ±0.5 s: 0.996); see
-``benchmarks/autok_calibration.py``. No label of any take was used.
+The constants ``c = 4`` and ``noise_range = (0.3, 0.6)`` are the best of a grid (c from 2 to 5, four
+ranges) on synthetic signals only (:func:`mocapkit.segment.synthetic.motion_like`, 12 signals for each
+of 0–8 changes, 8 channels at 30 Hz): they recover the exact number of changes in 97.2 % of them (mean
+F1 at ±0.5 s: 0.980); ``benchmarks/autok_calibration.py`` prints the grid. No label of any take was
+used.
 
 :class:`AutoSegmenter` is the method of ``mocapkit segment --method auto``: per-frame features are
 replaced by their 1-second moving mean and standard deviation (a rhythmic action becomes
@@ -31,8 +32,8 @@ from mocapkit.segment.base import Segmenter, as_signal, clean_cuts
 __all__ = ["AutoSegmenter", "CostCurve", "choose_k", "cost_curve", "curve_penalty", "slope_penalty", "window_stats"]
 
 #: The calibrated constants of :func:`choose_k` (module docstring).
-C_DEFAULT = 3.5
-NOISE_RANGE = (0.25, 0.5)
+C_DEFAULT = 4.0
+NOISE_RANGE = (0.3, 0.6)
 
 
 def window_stats(x: np.ndarray, width: int) -> np.ndarray:
@@ -79,8 +80,9 @@ def _segment_costs(z: np.ndarray, cost: str, gamma: float | None) -> np.ndarray:
 class CostCurve:
     """``costs[k]``: least total cost with ``k`` cuts, ``k = 0..k_max``; :meth:`cuts` gives the cuts."""
 
-    def __init__(self, costs: np.ndarray, back: np.ndarray, n: int):
+    def __init__(self, costs: np.ndarray, back: np.ndarray, n: int, index: np.ndarray | None = None):
         self.costs, self._back, self.n = costs, back, n
+        self._index = index  # the DP ran over these boundaries only (``candidates``)
 
     @property
     def k_max(self) -> int:
@@ -91,19 +93,22 @@ class CostCurve:
         if not 0 <= k <= self.k_max:
             raise InvalidParameterError(f"k must be in 0..{self.k_max}, got {k}")
         out = []
-        e = self.n
+        e = self._back.shape[1] - 1
         for j in range(k, 0, -1):
             e = int(self._back[j, e])
             out.append(e)
-        return np.asarray(out[::-1], dtype=np.int64)
+        cuts = np.asarray(out[::-1], dtype=np.int64)
+        return cuts if self._index is None else self._index[cuts]
 
 
-def cost_curve(z, min_size: int, k_max: int, cost: str = "rbf", gamma: float | None = None) -> CostCurve:
+def cost_curve(z, min_size: int, k_max: int, cost: str = "rbf", gamma: float | None = None,
+               candidates=None) -> CostCurve:
     """Exact least costs for ``0..k_max`` cuts (segments of at least ``min_size`` samples).
 
     Segment neighbourhood dynamic programme (Auger and Lawrence 1989): ``F_k(e) = min_s F_{k-1}(s) +
     T[s, e]``, vectorised over ``e``; ``O(k_max · n²)`` time and ``O(n²)`` memory. ``k_max`` is
-    lowered to what ``min_size`` allows.
+    lowered to what ``min_size`` allows. ``candidates``: cuts may only be placed at these samples
+    (e.g. the cuts another method proposes); the curve then ranks subsets of them.
     """
     z = as_signal(z)
     n = z.shape[0]
@@ -118,6 +123,14 @@ def cost_curve(z, min_size: int, k_max: int, cost: str = "rbf", gamma: float | N
     T = _segment_costs(z, cost, gamma)
     lens = np.arange(n + 1)[None, :] - np.arange(n + 1)[:, None]
     T = np.where(lens >= min_size, T, np.inf)
+    keep = None
+    if candidates is not None:
+        c = np.unique(np.asarray(candidates, dtype=np.int64))
+        c = c[(c > 0) & (c < n)]
+        keep = np.concatenate([[0], c, [n]])
+        T = T[np.ix_(keep, keep)]
+        k_max = min(k_max, c.size)
+        n_full, n = n, keep.size - 1
     F = T[0].copy()  # F_0(e): one segment [0, e)
     costs = [float(F[n])]
     back = np.zeros((k_max + 1, n + 1), dtype=np.int64)
@@ -125,7 +138,12 @@ def cost_curve(z, min_size: int, k_max: int, cost: str = "rbf", gamma: float | N
         tot = F[:, None] + T  # [s, e]
         back[k] = np.argmin(tot, axis=0)
         F = tot[back[k], np.arange(n + 1)]
+        if not np.isfinite(F[n]):  # no segmentation with k cuts meets min_size (candidates too close)
+            back = back[:k]
+            break
         costs.append(float(F[n]))
+    if keep is not None:
+        return CostCurve(np.asarray(costs), back, n_full, keep)
     return CostCurve(np.asarray(costs), back, n)
 
 

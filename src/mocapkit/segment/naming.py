@@ -10,34 +10,39 @@ Steps (:func:`name_actions`):
 2. **Distances between segments.** ``distance="mmd"`` (default): the maximum mean discrepancy with a
    Gaussian kernel ``exp(-gamma |x - y|^2)``, ``gamma`` = 1 / median squared distance between frames
    (median heuristic on at most 1,000 pooled frames); the square root of the biased estimate of MMD²
-   (never negative, unlike the unbiased one, whose clipping made many half-to-half spreads exactly 0). It compares the *distributions* of poses of two segments, ignoring frame order:
-   cheap, and two stretches of a periodic action (walking) match whatever their phase and number of
+   (never negative, unlike the unbiased one, whose clipping at 0 made many spreads exactly 0). It
+   compares the *distributions* of poses of two segments, ignoring frame order: cheap, and two stretches of a periodic action (walking) match whatever their phase and number of
    cycles. Each segment is represented by at most ``max_frames`` evenly spaced frames.
    ``distance="dtw"``: :func:`mocapkit.segment.similarity.dtw` on the same standardised, thinned
    segments (imported when asked for).
 3. **Clustering.** Average-linkage hierarchical clustering (:func:`scipy.cluster.hierarchy.linkage`)
    of the distance matrix.
 4. **Number of classes, without labels.** ``rule="threshold"`` (default): the dendrogram is cut at
-   ``threshold_scale * spread``, where ``spread`` is the *within-segment* spread -- the median, over
-   the segments of at least 16 frames, of the distance between a segment's first and second half.
-   Two segments of one action then differ about as much as the halves of one segment do, while
-   different actions differ several times more. The rule can give one class (all segments alike) and
-   as many classes as segments (every action different, as in the mocap6 takes), which a silhouette
-   rule cannot. ``threshold_scale`` (:data:`THRESHOLD_SCALE`) was set on synthetic data only
-   (``benchmarks/naming_bench.py --calibrate``): segments of 300--900 frames drawn from random
-   4-channel stationary processes (a sum of two harmonics of a period of 0.5--2 s per channel, with
-   channel offsets, amplitudes and phases of the process, plus AR(1) noise), each segment with its own
-   phase and a jitter of 10 % on period and amplitude and 0.1 on offset (a person never repeats an
-   action exactly). The criterion looks only at repetitions of one process (a null distribution,
-   like the level of a test): ``THRESHOLD_SCALE`` is the smallest multiple (grid of 0.1) at which at
-   most 5 % of the processes have two of their segments farther apart. Over 200 synthetic takes
-   (4 processes x 3 segments) the largest distance between two segments of one process is 1.20 spreads
-   (median), 1.97 (95 %), 2.69 (99 %), hence ``THRESHOLD_SCALE = 2.0`` (4.1 % split). The mean
-   distance between two random processes of that family is above 3.5 spreads in 99 % of pairs, and on
-   50 fresh synthetic takes per number of processes the rule finds exactly 2, 3, 4, 5 classes in 94,
-   100, 94, 94 % of them. Real actions are closer to each other than random processes; that is where
-   the rule errs (``docs/segmentation/naming.md``). The threshold was calibrated for the MMD distance;
-   with ``distance="dtw"`` the same multiple is used, uncalibrated.
+   ``threshold_scale * spread``, where ``spread`` measures how much two stretches of *one* action
+   differ, without labels: ``spread="blocks"`` (default), the median distance between neighbouring
+   blocks of ``block`` frames (2 s at 120 Hz) of every take -- most neighbouring blocks lie inside one
+   action, and the measure does not depend on the cuts; ``spread="halves"``, the median distance
+   between the two halves of every segment of at least 16 frames (it grows when the cuts are bad: a
+   segment straddling two actions has dissimilar halves, and short segments have noisy halves). The
+   rule can give one class (all segments alike) and as many classes as segments (every action
+   different, as in the mocap6 takes), which a silhouette rule cannot.
+   ``THRESHOLD_SCALE`` was set on synthetic data only (``benchmarks/naming_bench.py --calibrate``):
+   segments of 300--900 frames drawn from random 4-channel stationary processes (per channel two
+   harmonics of a period of 0.5--2 s with the process's offset, amplitudes and phases, plus AR(1)
+   noise), each segment with its own phase and a jitter of 10 % on period and amplitude and 0.1 on
+   offset (a person never repeats an action exactly). The criterion looks only at repetitions of one
+   process (a null distribution, like the level of a test): the scale is the smallest multiple (grid
+   of 0.1) at which at most 5 % of the processes have two of their segments farther apart. Over 200
+   synthetic takes (4 processes x 3 segments) the largest distance between two segments of one process
+   is, in block spreads, 0.45 (median), 0.78 (95 %), 1.07 (99 %) -- scale 1.0 --, and in half spreads
+   1.16, 1.98, 2.60 -- scale 2.0. Two different processes of that family are more than 1.4 block
+   spreads (3.5 half spreads) apart in 99 % of pairs. With the true cuts both find the right number
+   of classes in about 90 % of synthetic takes of 2--5 processes; under bad cuts neither wins
+   everywhere on synthetic data, but the half spread collapses to one class when the segments are
+   short (cut every 200 frames), the block spread does not, hence the default (numbers in
+   ``docs/segmentation/naming.md``). Real actions are closer to each other than random processes;
+   that is where the rule errs. The threshold was calibrated for the MMD distance; with
+   ``distance="dtw"`` the same multiple is used, uncalibrated.
    ``rule="silhouette"``: the ``k`` in ``2 .. min(max_classes, segments - 1)`` of best silhouette
    (scikit-learn, precomputed distances); with fewer than 3 segments it falls back to the threshold.
    ``n_classes=k`` forces ``k`` classes.
@@ -52,6 +57,7 @@ The caller decides the cuts (reference cuts, a segmenter's); a cut ``c`` starts 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import numpy as np
 
@@ -67,8 +73,8 @@ RULES = ("threshold", "silhouette")
 #: How the within-action spread is measured.
 SPREADS = ("blocks", "halves")
 #: Dendrogram cut as a multiple of the spread, per way of measuring it (set on synthetic data; module docstring).
-THRESHOLD_SCALE = {"blocks": 1.0, "halves": 2.0}
-#: Shortest segment whose halves enter the within-segment spread.
+THRESHOLD_SCALE = MappingProxyType({"blocks": 1.0, "halves": 2.0})
+#: Shortest segment whose halves enter the spread (``spread="halves"``); blocks are at least half of it.
 MIN_SPREAD_FRAMES = 16
 
 
@@ -89,7 +95,8 @@ class Naming:
     distances
         ``(S, S)`` distances between all segments, takes in order then segments in time order.
     spread
-        Within-segment spread (median half-to-half distance).
+        The spread of one action (median distance between neighbouring blocks, or between segment
+        halves; ``spread`` option).
     threshold
         Height at which the dendrogram was cut (``None`` with ``rule="silhouette"`` or ``n_classes``).
     rule
