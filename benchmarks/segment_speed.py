@@ -1,5 +1,6 @@
-"""ARMA segmenter speed: the whole pipeline on CMU 86_01 (4,579 frames) and on a 5,000-frame take,
-and the per-window AR fit batched in NumPy vs one statsmodels AutoReg per window (ratio in one run).
+"""Segmentation speed: the ARMA segmenter (the authors' reading, default, and the fitness-SD reading) and
+``--method auto`` on CMU 86_01 (4,579 frames) and on a 5,000-frame take, and the per-window AR fit batched
+in NumPy vs one statsmodels AutoReg per window (ratio in one run).
 
     .venv/bin/python benchmarks/segment_speed.py [../shared/data]
 """
@@ -31,15 +32,21 @@ def main() -> None:
 
     motion = load_motion(data / "cmu" / "86_01.amc", asf=data / "cmu" / "86.asf")
     t0 = time.perf_counter()
-    limbs = motion_features(motion).limbs
+    feats = motion_features(motion)
+    limbs, part = feats.limbs, feats.partition
     t_feat = time.perf_counter() - t0
-    seg = ARMASegmenter()
-    bmin, bmed = best_of(lambda: seg.fit_predict(limbs))
-    print(f"86_01 ({limbs.shape[0]} frames, 4 limbs): features (FK + angles) {t_feat:.3f} s; "
-          f"ARMA segmentation best {bmin:.3f} s, median {bmed:.3f} s")
-    X5 = np.concatenate([limbs, limbs[: 5000 - limbs.shape[0]]])
-    bmin, bmed = best_of(lambda: seg.fit_predict(X5))
-    print(f"5,000-frame take: ARMA segmentation best {bmin:.3f} s, median {bmed:.3f} s (target < 0.5 s; paper Table 6: 728.5 s)")
+    print(f"86_01 ({limbs.shape[0]} frames): features (FK + angles) {t_feat:.3f} s")
+    from mocapkit.segment.autok import AutoSegmenter
+
+    sd_reading = dict(differencing="fixed", order="parsimonious", cut="min_sd", p_range=(1, 2, 3, 4), q_range=(0, 1, 2))
+    for name, seg, X in (("ARMA (authors' reading)", ARMASegmenter(), limbs),
+                         ("ARMA (fitness-SD reading)", ARMASegmenter(**sd_reading), limbs),
+                         ("auto", AutoSegmenter(), part)):
+        X5 = np.concatenate([X, X[: 5000 - X.shape[0]]])
+        a, _ = best_of(lambda: seg.fit_predict(X))
+        bmin, bmed = best_of(lambda: seg.fit_predict(X5))
+        print(f"{name}: 86_01 best {a:.3f} s; 5,000-frame take best {bmin:.3f} s, median {bmed:.3f} s "
+              f"(target < 1 s; paper Table 6: 728.5 s)")
 
     # the fit step alone: all windows of all limbs (second differences, 100 samples) with AR(4)
     z = np.diff(limbs[::4], n=2, axis=0)

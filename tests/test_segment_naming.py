@@ -8,10 +8,17 @@ import itertools
 
 import numpy as np
 import pytest
+from scipy.signal import lfilter
 from sklearn.metrics import normalized_mutual_info_score
 
 from mocapkit.errors import InvalidParameterError
-from mocapkit.segment.cluster_metrics import best_matching, contingency, frame_accuracy, nmi, purity
+from mocapkit.segment.cluster_metrics import (
+    best_matching,
+    contingency,
+    frame_accuracy,
+    nmi,
+    purity,
+)
 from mocapkit.segment.naming import _mmd_matrix, class_letter, name_actions
 
 # --------------------------------------------------------------------------------------------------
@@ -137,9 +144,7 @@ def segment(rng, p, n):
     off, amp, ph, period = p
     t = np.arange(n)[:, None]
     x = off + amp * np.sin(2 * np.pi * t / period + ph + rng.uniform(0, 2 * np.pi))
-    e = rng.normal(0, 0.1, (n, off.size))
-    for i in range(1, n):
-        e[i] += 0.8 * e[i - 1]
+    e = lfilter([1.0], [1.0, -0.8], rng.normal(0, 0.1, (n, off.size)), axis=0)  # AR(1) noise
     return x + e
 
 
@@ -241,23 +246,22 @@ def test_class_letters():
 
 
 def test_dtw_option():
-    """With the DTW of segment/similarity.py the distinct processes are recovered; without it,
-    the option is refused with a clear message."""
+    """With the DTW of segment/similarity.py the distinct processes are recovered."""
     rng = np.random.default_rng(11)
     procs = [(p[0] + 3.0 * i, *p[1:]) for i, p in enumerate(process(rng) for _ in range(3))]
     order = [0, 1, 0, 2, 1]
     x, cuts = take_from(rng, procs, order)
-    try:
-        import mocapkit.segment.similarity as sim  # noqa: F401
-        has_dtw = hasattr(sim, "dtw")
-    except ImportError:
-        has_dtw = False
-    if has_dtw:
-        r = name_actions(x, cuts, distance="dtw", max_frames=100)
-        assert r.letters[0] == expected_letters(order)
-    else:
-        with pytest.raises(InvalidParameterError, match="dtw"):
-            name_actions(x, cuts, distance="dtw")
+    r = name_actions(x, cuts, distance="dtw", max_frames=100)
+    assert r.letters[0] == expected_letters(order)
+
+
+def test_dtw_missing_is_a_clear_error(monkeypatch):
+    """An installation without segment/similarity.py refuses distance="dtw" with a message naming it."""
+    import sys
+
+    monkeypatch.setitem(sys.modules, "mocapkit.segment.similarity", None)  # import now raises ImportError
+    with pytest.raises(InvalidParameterError, match="dtw"):
+        name_actions(X100, [50], distance="dtw")
 
 
 # --------------------------------------------------------------------------------------------------

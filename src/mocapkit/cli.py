@@ -717,12 +717,17 @@ def segment(
         for i, c in enumerate(rec["cuts"], 1):
             tab.add_row(str(i), str(c["frame"]), f"{c['time_s']:.3f}")
         console.print(tab)
+        if rec.get("actions"):
+            console.print(f"actions: {rec['actions']}")
         if "scores" in rec:
             sc = rec["scores"]
             ri = "–" if sc["ri_paper"] is None else f"{sc['ri_paper']:.3f}"
             console.print(f"against {labels.name}: F1 {sc['f1']:.3f} (P {sc['precision']:.3f}, R {sc['recall']:.3f}), "
                           f"frame agreement {sc['frame_agreement']:.3f}, RI as the paper's authors compute it {ri}, "
                           f"Covering {sc['covering']:.3f}")
+            if "naming_accuracy" in sc:
+                console.print(f"actions named: frame accuracy {sc['naming_accuracy']:.3f} (best matching of letters to "
+                              f"labels), purity {sc['naming_purity']:.3f}, NMI {sc['naming_nmi']:.3f}")
     if plot is not None:
         err.print(f"wrote {plot}")
 
@@ -736,7 +741,7 @@ def segment_bench(
     data: Annotated[Path, typer.Option("--data", help="The shared data folder (cmu/ and tssb/).")] = Path("../shared/data"),
     out: Annotated[Optional[Path], typer.Option("--out", help="Folder for segment_bench.json and .md.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print all rows as JSON.")] = False,
-    methods: Annotated[str, typer.Option("--methods", help="Comma-separated methods.")] = "arma,pca,kmeans,mlp,kernelcpd,pelt,clasp",
+    methods: Annotated[str, typer.Option("--methods", help="Comma-separated methods.")] = "auto,arma,every400,pca,kmeans,mlp,kernelcpd,pelt,clasp",
     tssb: Annotated[Optional[bool], typer.Option("--tssb/--no-tssb", help="Also run the 75 TSSB series (default: only without TAKES).")] = None,
     tssb_limit: Annotated[Optional[int], typer.Option("--tssb-limit", help="Only the first N TSSB series.",
                                                       callback=_within(1, 1_000_000))] = None,

@@ -30,6 +30,10 @@ MOCAP_TAKES = ("86_01", "13_29", "13_30", "14_14")
 MOCAP_METHODS = ("auto", "arma", "every400", "pca", "kmeans", "mlp", "kernelcpd", "pelt", "clasp")
 TSSB_METHODS = ("arma", "pca", "kmeans", "kernelcpd", "pelt", "clasp")
 KNOWN_K_METHODS = ("kernelcpd", "clasp")
+#: Methods also run with ``n_cuts="auto"`` (the penalty read off their own cost curve, no labels).
+CURVE_METHODS = ("kernelcpd", "pelt")
+#: Row suffix of each mode.
+MODE_SUFFIX = {"unknown_k": "", "known_k": " (known k)", "curve": " (curve penalty)"}
 PUBLISHED = ("ClaSP", "FLOSS", "BinSeg", "PELT")
 #: F1 margin in seconds (60 frames at 120 Hz); 86_01 cuts also count inside the annotators' a..c interval.
 MARGIN_S = 0.5
@@ -187,7 +191,7 @@ def make_segmenter(method: str, take: Take | None = None, others: list[Take] | N
     return cls(**kw)
 
 
-def score(pred, ref: Reference, margin_s: float = MARGIN_S) -> dict:
+def score(pred, ref: Reference, margin_s: float = MARGIN_S, naming=None) -> dict:
     """F1 (margin ``margin_s`` seconds at the reference's rate, or the annotators' interval), frame agreement,
     the paper's RI (Eq. 33 as its authors compute it; None without reference cuts) and Covering."""
     n = ref.n_frames
@@ -200,7 +204,19 @@ def score(pred, ref: Reference, margin_s: float = MARGIN_S) -> dict:
         "precision": f.precision,
         "recall": f.recall,
         "covering": covering(pred, ref.cuts, n),
+        **(naming_scores(naming, ref) if naming is not None else {}),
     }
+
+
+def naming_scores(naming, ref: Reference) -> dict:
+    """Frame accuracy after the best one-to-one matching of found action classes to labels, purity and
+    NMI of a one-take :class:`~mocapkit.segment.naming.Naming` against the reference's frame labels."""
+    from mocapkit.segment.cluster_metrics import frame_accuracy, nmi, purity
+
+    found = naming.frame_letters(0)
+    labels = np.asarray(ref.labels, dtype=object)[ref.frame_labels()]
+    return {"naming_accuracy": frame_accuracy(found, labels), "naming_purity": purity(found, labels),
+            "naming_nmi": nmi(found, labels)}
 
 
 def run_mocap(cmu_dir, methods=MOCAP_METHODS, known_k: bool = False, log=None) -> list[dict]:
@@ -213,11 +229,12 @@ def run_mocap(cmu_dir, methods=MOCAP_METHODS, known_k: bool = False, log=None) -
         if log:
             log("mlp skipped: it is trained on the other takes and needs at least two")
     rows = []
-    jobs = [(m, None) for m in methods] + ([(m, "known_k") for m in KNOWN_K_METHODS if m in methods] if known_k else [])
+    jobs = ([(m, None) for m in methods] + [(m, "curve") for m in CURVE_METHODS if m in methods]
+            + ([(m, "known_k") for m in KNOWN_K_METHODS if m in methods] if known_k else []))
     for take in takes:
         others = [t for t in takes if t is not take]
         for method, mode in jobs:
-            k = len(take.ref.cuts) if mode == "known_k" else None
+            k = len(take.ref.cuts) if mode == "known_k" else "auto" if mode == "curve" else None
             seg = make_segmenter(method, take, others, n_cuts=k)
             X = features_for(method, take)
             t0 = time.perf_counter()
@@ -226,10 +243,12 @@ def run_mocap(cmu_dir, methods=MOCAP_METHODS, known_k: bool = False, log=None) -
             row = {"dataset": "cmu", "take": take.name, "method": method, "mode": mode or "unknown_k",
                    "n_frames": take.n_frames, "n_ref_cuts": int(len(take.ref.cuts)), "n_cuts": int(len(pred)),
                    "cuts": [int(c) for c in pred], "ref_cuts": [int(c) for c in take.ref.cuts], "seconds": dt}
-            row.update(score(pred, take.ref))
+            from mocapkit.segment.naming import name_segments
+
+            row.update(score(pred, take.ref, naming=name_segments(take.limbs, pred, take.ref.rate_hz)))
             rows.append(row)
             if log:
-                log(f"{take.name} {method}{' (known k)' if mode else ''}: frame agreement {row['frame_agreement']:.3f} RI (paper) {row['ri_paper']:.3f} F1 {row['f1']:.3f} "
+                log(f"{take.name} {method}{MODE_SUFFIX[mode or 'unknown_k']}: frame agreement {row['frame_agreement']:.3f} RI (paper) {_f(row['ri_paper'])} F1 {row['f1']:.3f} "
                     f"Cov {row['covering']:.3f} cuts {len(pred)}/{len(take.ref.cuts)} {dt:.2f} s")
     return rows
 
@@ -323,9 +342,10 @@ def summarise(mocap_rows: list[dict], tssb_rows: list[dict]) -> dict:
     mean TSSB Covering."""
     out: dict = {"cmu": {}, "tssb": {}}
     for r in mocap_rows:
-        key = r["method"] + (" (known k)" if r["mode"] == "known_k" else "")
+        key = r["method"] + MODE_SUFFIX[r["mode"]]
         out["cmu"].setdefault(key, []).append(r)
-    out["cmu"] = {k: {m: _mean([r[m] for r in v]) for m in ("frame_agreement", "ri_paper", "f1", "covering", "seconds")}
+    out["cmu"] = {k: {m: _mean([r.get(m) for r in v])
+                      for m in ("frame_agreement", "ri_paper", "f1", "covering", "naming_accuracy", "seconds")}
                   for k, v in out["cmu"].items()}
     by = {}
     for r in tssb_rows:
@@ -341,24 +361,25 @@ def summarise(mocap_rows: list[dict], tssb_rows: list[dict]) -> dict:
 
 
 def markdown(mocap_rows: list[dict], tssb_rows: list[dict]) -> str:
-    """The README tables: per take and method F1 / frame agreement / the paper's RI / Covering / seconds;
-    TSSB means."""
+    """The README tables: per take and method F1 / frame agreement / the paper's RI / Covering / frame
+    accuracy of the named actions / seconds; TSSB means."""
     lines = []
     if mocap_rows:
-        lines.append("| take | method | F1 | agreement | RI (paper) | Covering | cuts / true | s |")
-        lines.append("|---|---|---:|---:|---:|---:|---:|---:|")
+        lines.append("| take | method | F1 | agreement | RI (paper) | Covering | named acc. | cuts / true | s |")
+        lines.append("|---|---|---:|---:|---:|---:|---:|---:|---:|")
         for r in mocap_rows:
-            m = r["method"] + (" (known k)" if r["mode"] == "known_k" else "")
+            m = r["method"] + MODE_SUFFIX[r["mode"]]
             lines.append(f"| {r['take']} | {m} | {r['f1']:.3f} | {r['frame_agreement']:.3f} | {_f(r['ri_paper'])} | "
-                         f"{r['covering']:.3f} | {r['n_cuts']} / {r['n_ref_cuts']} | {r['seconds']:.2f} |")
+                         f"{r['covering']:.3f} | {_f(r.get('naming_accuracy'))} | {r['n_cuts']} / {r['n_ref_cuts']} | "
+                         f"{r['seconds']:.2f} |")
         s = summarise(mocap_rows, [])["cmu"]
         lines.append("")
         lines.append(f"| method (mean of {len({r['take'] for r in mocap_rows})} takes) | F1 | agreement | RI (paper) | "
-                     "Covering | s per take |")
-        lines.append("|---|---:|---:|---:|---:|---:|")
+                     "Covering | named acc. | s per take |")
+        lines.append("|---|---:|---:|---:|---:|---:|---:|")
         for m, v in s.items():
             lines.append(f"| {m} | {v['f1']:.3f} | {v['frame_agreement']:.3f} | {_f(v['ri_paper'])} | "
-                         f"{v['covering']:.3f} | {v['seconds']:.2f} |")
+                         f"{v['covering']:.3f} | {_f(v['naming_accuracy'])} | {v['seconds']:.2f} |")
     if tssb_rows:
         s = summarise([], tssb_rows)
         lines.append("")

@@ -118,11 +118,17 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
     rec = {"job": "segment", "file": str(path), "kind": "skeletal", "method": method, "n_frames": motion.n_frames,
            "rate_hz": rate_hz, "cuts": [{"frame": int(c), "time_s": float(c) / rate_hz} for c in cuts],
            "segments": segments_of(cuts, motion.n_frames, rate_hz, ref), "warnings": warnings, "outputs": []}
+    from mocapkit.segment.naming import name_segments
+
+    naming = name_segments(feats.limbs, cuts, rate_hz)
+    rec["actions"] = None if naming is None else " ".join(naming.letters[0])
+    for seg_rec, letter in zip(rec["segments"], naming.letters[0] if naming is not None else []):
+        seg_rec["action"] = letter
     if ref is not None:
         from mocapkit.evaluation.segmentation import score
 
         rec["reference_cuts"] = [int(c) for c in ref.cuts]
-        rec["scores"] = score(cuts, ref)
+        rec["scores"] = score(cuts, ref, naming=naming)
     if plot is not None:
         from mocapkit.plot import plot_segmentation
 

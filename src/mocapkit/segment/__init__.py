@@ -21,6 +21,8 @@ from mocapkit.segment.features import (
 from mocapkit.segment.kernelcpd import KernelCPDSegmenter
 from mocapkit.segment.kmeans import KMeansSegmenter
 from mocapkit.segment.autok import AutoSegmenter, choose_k, cost_curve
+from mocapkit.segment.cluster_metrics import frame_accuracy, nmi, purity
+from mocapkit.segment.naming import Naming, name_actions, name_segments
 from mocapkit.segment.metrics import F1Result, covering, f1_margin, frame_agreement, ri_paper
 from mocapkit.segment.mlp import MLPSegmenter
 from mocapkit.segment.pca import PCASegmenter
@@ -38,6 +40,12 @@ from mocapkit.segment.similarity import (
 __all__ = [
     "ARMASegmenter",
     "AutoSegmenter",
+    "Naming",
+    "frame_accuracy",
+    "name_actions",
+    "name_segments",
+    "nmi",
+    "purity",
     "choose_k",
     "cost_curve",
     "ri_paper",
