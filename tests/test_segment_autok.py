@@ -84,7 +84,7 @@ def test_choose_k_minimises_the_penalised_cost():
     assert slope_penalty(costs) == pytest.approx(4.0 * np.median(gains[int(0.3 * gains.size):int(0.6 * gains.size)]))
     k = choose_k(costs, 3.5, (0.25, 0.5))
     assert k == int(np.argmin(costs + pen * np.arange(costs.size))) == 2
-    assert choose_k([5.0, 1.0]) == 1 and choose_k([5.0, 5.0]) == 0
+    assert choose_k([5.0, 1.0]) == 0 and choose_k([5.0, 5.0]) == 0  # too few cuts to estimate the noise: none
     for bad in ([], [np.nan, 1.0], [[1.0, 2.0]]):
         with pytest.raises(InvalidParameterError):
             choose_k(bad)
@@ -169,3 +169,32 @@ def test_arma_select_auto_keeps_a_subset_of_its_candidates():
     pooled = ARMASegmenter(downsample=1).fit(x)
     candidates = set(pooled.ensemble([ch["cuts"] for ch in pooled.channels_], 1))
     assert set(cuts.tolist()) <= candidates
+
+
+def test_bad_inputs_are_refused_with_a_clear_error():
+    z = np.random.default_rng(0).normal(size=(100, 2))
+    for cand in ([10.5, 20], [-3, 50], [50, 100], ["a"], [True]):  # never silently dropped or rounded
+        with pytest.raises(InvalidParameterError, match="candidates"):
+            cost_curve(z, 5, 3, candidates=cand)
+    assert cost_curve(z, 5, 3, candidates=np.array([20, 60])).cuts(2).tolist() == [20, 60]
+    with pytest.raises(InvalidParameterError, match="gamma"):
+        cost_curve(z, 5, 3, gamma=-1.0)
+    for kw in ({"c": "x"}, {"noise_range": (0.5,)}, {"noise_range": 0.5}, {"c": float("inf")}):
+        with pytest.raises(InvalidParameterError):
+            AutoSegmenter(**kw)
+
+
+def test_a_long_take_is_thinned_to_max_points_and_keeps_its_cuts():
+    """Beyond max_points samples the DP sees fewer samples (bounded memory); the cuts stay where they were."""
+    x, cuts = motion_like(4, seed=77)
+    x4 = np.repeat(x, 4, axis=0)  # the same take at 4x the rate: 4x the samples
+    seg = AutoSegmenter(downsample=1, max_points=x.shape[0])
+    found = seg.fit_predict(x4)
+    assert seg.step_ == 4
+    assert f1_margin(found, cuts * 4, x4.shape[0], 60).f1 == 1.0
+
+
+def test_a_short_take_gets_no_spurious_cut():
+    for seed in range(5):
+        x, _ = motion_like(0, min_len_s=3.0, max_len_s=4.5, seed=500 + seed)
+        assert AutoSegmenter(downsample=1).fit(x).cuts_.size == 0

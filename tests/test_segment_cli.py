@@ -57,6 +57,30 @@ def test_segment_equals_library(excerpt):
         assert [c["frame"] for c in json.loads(r.stdout)["cuts"]] == seg.fit_predict(limbs).tolist()
 
 
+def test_segment_auto_names_the_actions(excerpt):
+    """--method auto: the library's AutoSegmenter on the 8 partition angles; the segments are lettered and,
+    with --labels, the scores hold the paper's RI and the naming scores (hand-computed from the cuts)."""
+    from mocapkit.evaluation.segmentation import auto_settings
+    from mocapkit.io.loaders import load_motion
+    from mocapkit.segment.autok import AutoSegmenter
+    from mocapkit.segment.features import motion_features
+
+    amc, asf, labels = excerpt
+    r = run("segment", amc, "--asf", asf, "--rate", 15, "--json", "-m", "auto", "--labels", labels)
+    assert r.returncode == 0, r.stderr
+    rec = json.loads(r.stdout)
+    part = motion_features(load_motion(amc, asf=asf, rate=15)).partition
+    cuts = [c["frame"] for c in rec["cuts"]]
+    assert cuts == AutoSegmenter(**auto_settings(15.0)).fit_predict(part).tolist()
+    assert rec["actions"] == " ".join(s["action"] for s in rec["segments"])
+    # reference walk [0, 69) jump [69, 144) walk [144, 200); found cuts 73, 145 named A B A
+    assert cuts == [73, 145] and rec["actions"] == "A B A"
+    sc = rec["scores"]
+    assert sc["ri_paper"] == pytest.approx(np.mean([1 - 4 / 69, 1 - 1 / 75]))
+    assert sc["naming_accuracy"] == pytest.approx((69 + 71 + 55) / 200)  # A -> walk, B -> jump
+    assert sc["naming_purity"] == pytest.approx((69 + 71 + 55) / 200)
+
+
 def test_segment_errors(excerpt, tmp_path):
     amc, asf, _ = excerpt
     r = run("segment", amc, "--asf", asf, "--rate", 15, "--downsample", 4)
@@ -86,6 +110,7 @@ def test_segment_mlp_trained_on_a_take(excerpt, tmp_path):
 @pytest.fixture(scope="module")
 def bench_86(shared_data):
     from mocapkit.evaluation.segmentation import features_for, load_take, make_segmenter, score
+    from mocapkit.segment.naming import name_segments
 
     cmu = shared_data / "cmu"
     take = load_take(cmu, "86_01")
@@ -94,7 +119,8 @@ def bench_86(shared_data):
     for method in ("auto", "arma", "pca", "kmeans", "mlp", "kernelcpd", "pelt", "clasp"):
         seg = make_segmenter(method, take, others)
         pred = seg.fit_predict(features_for(method, take))
-        out[method] = score(pred, take.ref)
+        naming = name_segments(take.limbs, pred, take.ref.rate_hz) if method == "auto" else None
+        out[method] = score(pred, take.ref, naming=naming)
     # the separate "known number of segments" mode
     for method in ("kernelcpd", "clasp"):
         seg = make_segmenter(method, take, others, n_cuts=len(take.ref.cuts))
@@ -106,7 +132,7 @@ def bench_86(shared_data):
 # `mocapkit segment-bench` measured on 2026-11-22 (docs/segmentation/segment_bench.md), never above; `auto`
 # and `arma` (the authors' reading since issue 14) measured on 2026-12-02.
 FLOOR_86 = {
-    'auto': {'f1': 0.95, 'frame_agreement': 0.9},
+    'auto': {'f1': 0.95, 'frame_agreement': 0.9, 'naming_accuracy': 0.93},  # the issue's goal: named actions >= 0.8
     'arma': {'frame_agreement': 0.59, 'covering': 0.45},
     'pca': {'frame_agreement': 0.63, 'covering': 0.54},
     'kmeans': {'frame_agreement': 0.37, 'f1': 0.45, 'covering': 0.33},
@@ -217,3 +243,26 @@ def test_segment_bench_on_user_takes(excerpt, tmp_path):
     assert sorted({row["take"] for row in rows}) == ["a", "b"] and {row["method"] for row in rows} == {"arma", "mlp"}
     r = run("segment-bench", tmp_path / "nowhere", "--methods", "arma")
     assert r.returncode == 2 and "nowhere" in r.stderr and "TAKE=LABELS" in r.stderr
+
+
+def test_haca_labels_without_header_and_with_integer_labels(tmp_path):
+    """The header line is optional (a first line that is a segment line is kept, not dropped), and
+    integer labels in the HACA layout are read as HACA, not as per-frame labels."""
+    from mocapkit.io.labels import read_reference as _read_reference
+
+    body = "stand 40 50 60\ndown 90 100 110\nup 150 150 150\n"
+    with_header = tmp_path / "h.txt"
+    with_header.write_text("take 01\n" + body)
+    without = tmp_path / "n.txt"
+    without.write_text(body)
+    for f in (with_header, without):
+        ref = _read_reference(f, 150, 30.0)
+        assert ref.cuts.tolist() == [50, 100] and list(ref.labels) == ["stand", "down", "up"]
+    numeric = tmp_path / "i.txt"
+    numeric.write_text("take 01\n1 40 50 60\n2 90 100 110\n1 150 150 150\n")
+    ref = _read_reference(numeric, 150, 30.0)
+    assert ref.cuts.tolist() == [50, 100] and list(ref.labels) == ["1", "2", "1"]
+    # per-frame labels that happen to come 4 per line stay per-frame labels
+    pf = tmp_path / "p.txt"
+    pf.write_text("1 1 1 1\n2 2 2 2\n")
+    assert _read_reference(pf, 96, 120.0).cuts.tolist() == [48]

@@ -698,25 +698,28 @@ def segment(
     train: TrainOpt = None,
     rate: SegRateOpt = None,
     downsample: DownsampleOpt = None,
+    strict: StrictOpt = True,
 ) -> None:
     """Cut a take into actions from its limb-bone angles (auto: the number of actions found without being told; the ARMA method; or a baseline)."""
     from mocapkit.jobs import segment_job
 
     rec = segment_job(input, asf=asf, method=method.value, labels=labels, joint=joint, train=train, rate=rate,
-                      downsample=downsample, plot=plot, progress=_progress)
+                      downsample=downsample, strict=strict, plot=plot, progress=_progress)
     print_warnings(rec)
     if as_json:
         print(_json(rec, f"{input}: segment --json"))
     else:
-        console.print(f"{input.name}: {len(rec['cuts'])} cuts ({rec['method']}, {rec['n_frames']} frames at "
-                      f"{rec['rate_hz']:g} Hz)")
+        n_cuts = len(rec["cuts"])
+        console.print(f"{input.name}: {n_cuts} cut{'' if n_cuts == 1 else 's'} ({rec['method']}, {rec['n_frames']} "
+                      f"frames at {rec['rate_hz']:g} Hz)")
         tab = Table()
         tab.add_column("cut", justify="right")
         tab.add_column("frame", justify="right")
         tab.add_column("time (s)", justify="right")
         for i, c in enumerate(rec["cuts"], 1):
             tab.add_row(str(i), str(c["frame"]), f"{c['time_s']:.3f}")
-        console.print(tab)
+        if rec["cuts"]:
+            console.print(tab)
         if rec.get("actions"):
             console.print(f"actions: {rec['actions']}")
         if "scores" in rec:
@@ -728,8 +731,8 @@ def segment(
             if "naming_accuracy" in sc:
                 console.print(f"actions named: frame accuracy {sc['naming_accuracy']:.3f} (best matching of letters to "
                               f"labels), purity {sc['naming_purity']:.3f}, NMI {sc['naming_nmi']:.3f}")
-    if plot is not None:
-        err.print(f"wrote {plot}")
+    for out in rec["outputs"]:  # the plot, and with --method arma its per-window diagnostics
+        err.print(f"wrote {out['path']}")
 
 
 @app.command("segment-bench")
@@ -827,12 +830,13 @@ def _fail(message: str, code: int) -> None:
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Python warnings (a reader's ``MocapWarning``...) as one line ``warning: ...`` each, once per text."""
     text = _one_line(message)
-    if text not in _SHOWN_WARNINGS:
-        _SHOWN_WARNINGS.add(text)
+    from mocapkit.cli_options import SHOWN_WARNINGS
+
+    if text not in SHOWN_WARNINGS:
+        SHOWN_WARNINGS.add(text)
         sys.stderr.write(f"warning: {text}\n")
 
 
-_SHOWN_WARNINGS: set[str] = set()
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -267,13 +267,21 @@ TrainOpt = Annotated[Optional[list[str]], typer.Option(
 SegRateOpt = Annotated[Optional[float], typer.Option("--rate", help="Frame rate of an AMC file (default 120 Hz).",
                                                      callback=_within(*RATE_RANGE))]
 DownsampleOpt = Annotated[Optional[int], typer.Option(
-    "--downsample", help="ARMA: keep every N-th frame (default: the factor nearest to 30 Hz).",
+    "--downsample", help="arma and auto: keep every N-th frame (default: the factor nearest to 30 Hz).",
     callback=_within(1, 1_000_000))]
 
 
+#: Warnings already printed by the ``warnings`` hook of :func:`mocapkit.cli.main` (a reader's
+#: ``MocapWarning``, prefixed with the file), so that a record does not print them a second time.
+SHOWN_WARNINGS: set[str] = set()
+
+
 def print_warnings(rec: dict) -> None:
-    """A job record's warnings (``warning: ...``) and notes on stderr, one line each."""
+    """A job record's warnings (``warning: ...``) and notes on stderr, one line each; a warning the
+    reader already issued for the same file is not repeated."""
     for w in rec.get("warnings", []):
+        if any(shown == w or shown.endswith(f": {w}") for shown in SHOWN_WARNINGS):
+            continue
         err.print(f"warning: {w}", markup=False, highlight=False)
     for n in rec.get("notes", []):
         err.print(n, markup=False, highlight=False)

@@ -11,7 +11,8 @@ from typing import Annotated, Optional
 import typer
 from rich.table import Table
 
-from mocapkit.cli_options import AsfOpt, JointOpt, SegRateOpt, _json, _progress, _within, console, print_warnings
+from mocapkit.cli_options import (AsfOpt, JointOpt, SegRateOpt, StrictOpt, _json, _progress, _within, console,
+                                  print_warnings)
 
 
 class Limb(str, Enum):
@@ -51,6 +52,7 @@ def similarity(
         callback=_within(2, 10_000_000))] = None,
     rate: SegRateOpt = None,
     joint: JointOpt = None,
+    strict: StrictOpt = True,
     as_json: Annotated[bool, typer.Option("--json", help="Print the record as JSON.")] = False,
 ) -> None:
     """Similarity of two takes' limb angles: DTW (Eq. 5-8) then the correlation of the aligned
@@ -59,7 +61,7 @@ def similarity(
 
     rec = similarity_job(a, b, asf=asf, limbs=[x.value for x in limb] if limb else None, frames=frames,
                          frames_b=frames_b, rate=rate, joint=joint, align=align.value, band=band, resample=resample,
-                         progress=_progress)
+                         strict=strict, progress=_progress)
     print_warnings(rec)
     if as_json:
         print(_json(rec, f"{a} {b}: similarity --json"))

@@ -123,7 +123,8 @@ def plot_segmentation(limbs, rate_hz: float, cuts, path, ref_cuts=None, names=No
             ax.axvline(c / rate_hz, color="tab:red", lw=1.2, label="found cut" if (i == 0 and k == 0) else None)
         for k, c in enumerate(ref_cuts if ref_cuts is not None else []):
             ax.axvline(c / rate_hz, color="k", ls="--", lw=1.0, label="reference cut" if (i == 0 and k == 0) else None)
-    axes[0, 0].legend(loc="upper right", fontsize=8)
+    if axes[0, 0].get_legend_handles_labels()[0]:  # no cut at all: no legend (and no matplotlib warning)
+        axes[0, 0].legend(loc="upper right", fontsize=8)
     axes[-1, 0].set_xlabel("time (s)")
     if title:
         axes[0, 0].set_title(title)

@@ -200,13 +200,22 @@ def _check_positive_int(value: object, name: str) -> int:
 # --------------------------------------------------------------------------------------------------
 
 
+def _is_haca_row(tokens: list[str]) -> bool:
+    """``label a b c`` with integers ``a <= b <= c``."""
+    if len(tokens) != 4 or not all(_INT_RE.fullmatch(t) for t in tokens[1:]):
+        return False
+    a, b, c = (int(t) for t in tokens[1:])
+    return a <= b <= c
+
+
 def read_haca_labels(
     path: str | Path, n_frames: int | None = None, rate_hz: float = 120.0
 ) -> Reference:
     """Read a CMU subject-86 segmentation file (e.g. ``86_01.labels.txt``).
 
     Format: blank lines are ignored; the first non-blank line is a header (e.g. ``86 01``) and is
-    not interpreted; every following line is ``label a b c`` with integers ``a <= b <= c``. The
+    not interpreted, unless it is itself a segment line (4 tokens, integers ``a <= b <= c``): the
+    header is optional. Every following line is ``label a b c`` with integers ``a <= b <= c``. The
     segment named ``label`` *ends* at the 1-based frame ``b`` (inclusive), and ``a..c`` is the
     annotators' uncertainty about that end. The ``b`` are strictly increasing; the last line ends
     the take, so its ``b`` is the number of frames and is not a cut (its ``a`` and ``c`` are not
@@ -256,7 +265,8 @@ def read_haca_labels(
             continue
         if not header_seen:
             header_seen = True
-            continue
+            if not _is_haca_row(tokens):  # a header such as "86 01"; a first line "walk 40 50 60" is data
+                continue
         if len(tokens) != 4:
             raise MocapFormatError(
                 src, ln, f"expected 4 tokens 'label a b c', got {len(tokens)}: {raw.strip()[:60]!r}"
@@ -395,13 +405,19 @@ def read_reference(path: str | Path, n_frames: int, rate_hz: float = 120.0) -> R
     """A label file of either format, checked against the take (``n_frames`` at ``rate_hz``).
 
     HACA (:func:`read_haca_labels`) when a line after the first holds a token that is not an
-    integer (the label names); otherwise per-frame block labels (:func:`read_frame_labels`) at
+    integer (the label names), or when every segment line is ``label a b c`` with increasing ``b``
+    and the last ``b`` is ``n_frames`` (integer labels); otherwise per-frame block labels (:func:`read_frame_labels`) at
     10 Hz, i.e. ``round(rate_hz / 10)`` frames per label (12 at 120 Hz, as in mocap6).
     """
     rate = _check_rate(rate_hz)
     src, lines = _read_lines(path)
     rows = [ln.split() for ln in lines if ln.strip()]
     haca = any(not _INT_RE.fullmatch(tok) for ln in rows[1:] for tok in ln)
+    if not haca:  # integer labels: HACA when every segment line is "label a b c" ending the take at its last b
+        seg = rows[1:] if rows and not _is_haca_row(rows[0]) else rows
+        ends = [int(r[2]) for r in seg if _is_haca_row(r)]
+        haca = (len(seg) > 0 and len(ends) == len(seg) and all(x < y for x, y in zip(ends, ends[1:]))
+                and ends[-1] == n_frames)
     if haca:
         return read_haca_labels(path, n_frames=n_frames, rate_hz=rate)
     return read_frame_labels(path, n_frames=n_frames, frames_per_label=max(1, int(round(rate / 10.0))), rate_hz=rate)

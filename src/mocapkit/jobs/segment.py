@@ -57,7 +57,8 @@ def check_options(method: str = "arma", train: list[str] | None = None, joint: l
 
 def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", labels: Path | None = None,
                 joint: list[str] | None = None, train: list[str] | None = None, rate: float | None = None,
-                downsample: int | None = None, labels_beside: bool = False, output: Path | None = None,
+                downsample: int | None = None, labels_beside: bool = False, strict: bool = True,
+                output: Path | None = None,
                 plot: Path | None = None, progress: Progress = no_progress) -> dict:
     """Segment the BVH/AMC take ``path`` with ``method`` and return the record of ``mocapkit segment
     --json`` (cuts in frames and seconds, the segments between them; ``reference_cuts`` and ``scores``
@@ -76,7 +77,7 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
     train_files = [Path(x.strip()) for it in train or [] for x in it.split("=", 1)]
     arma_plot = None if plot is None or method != "arma" else plot.with_name(plot.stem + "_arma.png")
     check_outputs(path, (plot, "--plot"), (arma_plot, "--plot (ARMA windows)"), inputs=(asf, labels, *train_files))
-    motion = load_motion(path, asf=asf, rate=rate)
+    motion = load_motion(path, asf=asf, rate=rate, strict=strict)
     rate_hz = float(motion.rate)
     warnings = list(motion.meta.get("warnings", []))
     ref = None

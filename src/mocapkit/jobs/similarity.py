@@ -64,7 +64,7 @@ def check_options(limbs=None, frames=None, frames_b=None, align: str = "limb", b
 def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: list[str] | None = None,
                    frames: str | None = None, frames_b: str | None = None, rate: float | None = None,
                    joint: list[str] | None = None, align: str = "limb", band: int | None = None,
-                   resample: int | None = None, output: Path | None = None,
+                   resample: int | None = None, strict: bool = True, output: Path | None = None,
                    progress: Progress = no_progress) -> dict:
     """Compare the BVH/AMC takes ``path`` and ``path_b`` (frame ranges ``frames``/``frames_b``,
     ``"A0:A1"``) on the limb angles ``limbs`` (default all four of ``LIMB_NAMES``): per limb the Eq. 9
@@ -83,7 +83,7 @@ def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: 
     sides, warnings, motions, loaded = [], [], [], {}
     for p, rng, option in ((path, frames, "--frames"), (path_b, frames_b, "--frames-b")):
         if p.resolve() not in loaded:  # the same take twice (two ranges of it) is read once
-            motion = load_motion(p, asf=asf, rate=rate)
+            motion = load_motion(p, asf=asf, rate=rate, strict=strict)
             warnings += [f"{p}: {w}" for w in motion.meta.get("warnings", [])]
             loaded[p.resolve()] = (motion, motion_features(motion, jmap).limbs)
         motion, all_limbs = loaded[p.resolve()]
@@ -93,7 +93,7 @@ def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: 
                              "rate_hz": float(motion.rate)}))
         motions.append(motion)
     (A, sa), (B, sb) = sides
-    if sa["rate_hz"] != sb["rate_hz"]:
+    if abs(sa["rate_hz"] - sb["rate_hz"]) > 1e-3 * max(sa["rate_hz"], sb["rate_hz"]):  # not a rounded frame time
         warnings.append(f"the takes have different frame rates ({sa['rate_hz']:g} and {sb['rate_hz']:g} Hz): DTW "
                         "aligns them, but a band and the path length count samples of each")
     if band is not None and resample is None and band < min_band(len(A), len(B)):

@@ -1,12 +1,16 @@
 """Segmentation of motion into actions.
 
 ``features`` (limb-bone/spine partition angles, Tables 2–3 of the ARMA seed paper), ``arma`` (the
-seed paper's ARMA segmenter), the baselines one module each -- ``pca`` (Barbič et al. 2004), ``kmeans``,
+seed paper's ARMA segmenter), ``autok`` (the number of segments chosen without labels; ``AutoSegmenter``
+is ``segment --method auto``), the baselines one module each -- ``pca`` (Barbič et al. 2004), ``kmeans``,
 ``mlp`` (the seed paper's BP-net), ``kernelcpd`` and ``pelt`` (ruptures adapters, with the shared
 penalty of ``cpdpenalty``), ``clasp`` (claspy adapter) -- gathered by name in ``registry.BASELINES``,
-``metrics`` (RI, F1 with margin, Covering) and ``similarity`` (DTW and the correlation of aligned
-sequences, Eq. 5–9). Every segmenter has the ``fit(X).predict()`` /
-``fit_predict(X)`` shape of ruptures and claspy and returns sorted 0-based cut frames.
+``metrics`` (the paper's RI as its authors compute it, frame agreement, F1 with margin, Covering),
+``similarity`` (DTW and the correlation of aligned sequences, Eq. 5–9), ``diagnostics`` (ACF, PACF,
+Ljung–Box, the differencing study), ``naming`` and ``cluster_metrics`` (actions named across takes,
+purity, NMI, frame accuracy) and ``synthetic`` (signals with known changes). Every segmenter has the
+``fit(X).predict()`` / ``fit_predict(X)`` shape of ruptures and claspy and returns sorted 0-based cut
+frames.
 """
 
 from mocapkit.segment.arma import ARMASegmenter

@@ -1,34 +1,51 @@
 """The ARMA segmenter of the seed paper (Mei, Hu, Yang, Liu, Sensors 2021, 21, 5577).
 
-Every step of the paper, each as an explicit parameter with the paper's value as default:
+Every step of the paper, each as an explicit parameter with the paper's value as default. Where the
+paper can be read two ways, the authors' published MATLAB code (the paper's reference [3],
+``github.com/meifeng3/Mocap-data-collected-from-4-subjects``) decides the default and the other reading
+stays an option (``differencing``, ``order``, ``cut``; steps 2, 4, 6 and 9):
 
 1. **Downsampling** (Sec. 6.1) by an integer factor ``downsample`` (every k-th frame; the paper gives
    no factor: 4 takes 120 Hz mocap to 30 Hz).
-2. **Differencing** of each limb angle sequence, order ``diff_order`` = 2 (Sec. 5.1, Eq. 26).
+2. **Differencing**, order ``diff_order`` = 2 (Sec. 5.1, Eq. 26: "motion sequence data after
+   second-order difference are selected"). ``differencing="adf"`` (default, the authors'
+   ``segmentnote_choose.m``): a window the stationarity test (step 4) passes is modelled raw, one that
+   fails is differenced ``diff_order`` times, and one that still fails holds no cut — Sec. 5.2: "If
+   the window sequence does not pass the stationarity test, it is differentiated".
+   ``differencing="fixed"``: every limb sequence differenced ``diff_order`` times, windows that fail
+   the test once more.
 3. **Windows** of ``window`` = 100 samples (Sec. 5.2); a last partial window shorter than half a
    window joins the one before it.
 4. **Stationarity test** per window (Sec. 4.2, Eq. 12): an augmented Dickey–Fuller test with a
    constant and ``adf_lags`` lagged differences at level ``adf_alpha`` (MacKinnon 2010 critical
-   values); a window that fails is differenced once more (Sec. 5.2).
+   values); see step 2 for what a failing window becomes.
 5. **AR(MA) least-squares fit** (Eq. 16–22): AR(p) by ordinary least squares on the lagged design
    of Eq. 20 with a constant ``c`` (Eq. 17); for q > 0 the MA part is fitted by the two-stage
    least-squares method of Hannan and Rissanen (a long AR gives residual estimates ε̂, then θ_t is
    regressed on p lags of θ and q lags of ε̂). All windows are solved at once by batched QR in NumPy.
    The residual variance is Eq. 22, σ̂² = s(β̂)/(n − p) with n − p the fitted samples.
-6. **Order selection** by the fitness F(p, q) of Eq. 25, the mean squared one-step error of the
-   model on the whole differenced sequence of a limb. The paper searches (p, q) by particle swarm
-   optimisation (Eq. 23–24); an exhaustive search over the small grid ``p_range`` × ``q_range`` finds
-   the exact optimum PSO approximates, so it replaces it. Because in-sample F can only fall as the
-   order grows, the smallest p + q whose F is within ``order_rtol`` of the best is taken (our choice:
-   without it the search would always return the largest order of the grid).
+6. **Order selection**. ``order="aic"`` (default, the authors' ``ARMA_output_change.m``: ``armax``
+   over p, q = 0..5 and the least ``aic``): per window, the (p, q) of ``p_range`` × ``q_range`` (0..5
+   each, p + q ≥ 1) with the least AIC = m·ln σ̂² + 2(p + q + 1), σ̂² over the samples every order
+   predicts (so that all orders are compared on the same samples). ``order="best_f"``: Eq. 25, "the
+   fitness F(p, q) of the ARMA model is used as the standard to decide whether the order of the model
+   is appropriate" — the least F over the grid, F the mean squared one-step error of the model on the
+   whole differenced sequence of a limb. ``order="parsimonious"``: the same F (below). The paper
+   searches (p, q) by particle swarm optimisation (Eq. 23–24); an exhaustive search over the small
+   grid finds the exact optimum PSO approximates, so it replaces it. Because in-sample F can only fall as the order grows,
+   "parsimonious" takes the smallest p + q whose F is within ``order_rtol`` of the best (our earlier
+   default, with p ≤ 4, q ≤ 2).
 7. **R² per window** (Eq. 28–29) against ``r2_min`` = 0.6: a window whose R² is below the threshold
    holds a segmentation point. SSE and SST run over the samples the fit predicts (the first p, or
    long-AR + q, samples of a window have no prediction). Sec. 5.2 can be read two ways: each window
    fitted on its own (``r2_fit="window"``, default), or "fit each limb sequence, then divide the
    fitted sequence into windows" (``r2_fit="sequence"``: one model per limb, no per-window
-   differencing). Measured on the 4 labelled CMU takes (``mocapkit segment-bench``): mean RI 0.673
-   with "window", 0.618 with "sequence". On real takes most windows fall below 0.6 with either
-   reading, so the method tends to cut about once per window.
+   differencing; it needs ``order="best_f"`` or ``"parsimonious"``). With the fitness-SD reading of
+   steps 2, 6, 9 the 4 labelled CMU takes gave mean frame agreement 0.673 with "window", 0.618 with
+   "sequence". On real takes most windows fall below 0.6 with either reading, so the method tends to
+   cut about once per window. (The authors' code tests R², as a squared correlation of measured and
+   predicted, on sub-windows of 25 samples and keeps one cut per sub-window; we keep the paper's
+   Eq. 28–29 on the window.)
 8. **Per-sample fitness SD** (Eq. 30–31) in each such window: the model M currently in use — the fit
    of the preceding window, "is the current model suitable to continue to describe the subsequent
    sequence" (Sec. 5.3) — predicts every sample one step ahead; a sample inside the 95 % prediction
@@ -41,12 +58,17 @@ Every step of the paper, each as an explicit parameter with the paper's value as
    model's residual SD σ̂ of Eq. 22, the spread the one-step interval must cover; Eq. 31 prints
    1.90 where Eq. 30 has 1.96 — we use ``z`` = 1.96 (95 %); w_M = 30 is used as given, in the units
    of the differenced signal (the paper also calls it the window length and Max − Min of the data),
-   and for w above w_M·(R_O + R_AN)/(R_AN·R_O) ≈ 1232 the denominator turns negative and SD is 0. The first window, and a
-   window whose predecessor was differenced to another order, uses its own fit as M.
-9. **The cut** of a window is its sample of minimum fitness SD. All samples outside the interval
-   of one model have the same SD, so ties are broken (our choice; the paper does not say) by the
-   sample that best splits the window into "M fits" before and "M fails" from it on (the count of
-   SD = 1 samples before it plus SD < 1 samples from it), then by the larger standardised error.
+   and for w above w_M·(R_O + R_AN)/(R_AN·R_O) ≈ 1232 the denominator turns negative and SD is 0.
+   With ``differencing="fixed"`` M is the preceding window's fit; with ``"adf"`` (windows modelled
+   raw or differenced, not one contiguous series) and for the first window, and a window whose
+   predecessor was differenced to another order, M is the window's own fit.
+9. **The cut**. ``cut="max_error"`` (default, the authors' ``point_choose2.m``: ``[aa, bb] = max(W)``
+   over ``W = |U − M3|``): the sample of largest |measured − predicted| one step ahead.
+   ``cut="min_sd"``: Sec. 5.2, "the minimum fitness in this data segment is selected as the
+   segmentation point" — the sample of minimum fitness SD. All samples outside the interval of one
+   model have the same SD, so ties are broken (our choice; the paper does not say) by the sample that
+   best splits the window into "M fits" before and "M fails" from it on (the count of SD = 1 samples
+   before it plus SD < 1 samples from it), then by the larger standardised error.
 10. **Median ensemble over limbs** (Eq. 32). The paper takes the median of each row of the matrix
     of per-limb cuts, which needs every limb to find the same number of cuts. We define: all cuts of
     all limbs are pooled and sorted; a cut within ``ensemble_tol`` samples of its group's first cut
@@ -54,7 +76,9 @@ Every step of the paper, each as an explicit parameter with the paper's value as
     the median of its members (each limb first reduced to the median of its own members), other
     groups are dropped. When all limbs find the same cuts in the same order within the tolerance,
     this equals the paper's row-wise median. Groups are complete-linkage: a group spans at most
-   ``ensemble_tol`` samples from its first cut, so chains of nearby cuts cannot merge far-apart ones.
+    ``ensemble_tol`` samples from its first cut, so chains of nearby cuts cannot merge far-apart ones.
+    ``select="auto"`` instead keeps the subset of all groups (one limb enough) that the
+    number-of-segments rule of :mod:`mocapkit.segment.autok` prefers (:meth:`ARMASegmenter.select_cuts`).
 
 Cuts are returned as 0-based frames of the input (a downsampled sample ``t`` is input frame
 ``t·downsample``).
@@ -256,9 +280,9 @@ class ARMASegmenter(Segmenter):
     adf_lags, adf_alpha
         Lagged differences and level of the per-window ADF stationarity test (Sec. 4.2).
     p_range, q_range
-        The (p, q) grid searched exhaustively by the fitness F of Eq. 25 (replaces the PSO).
+        The (p, q) grid searched exhaustively (replaces the PSO): 0..5 each, as the authors' code.
     order_rtol
-        The smallest p + q with F within this relative margin of the best F is chosen.
+        ``order="parsimonious"``: the smallest p + q with F within this relative margin of the best F.
     r2_min
         R² threshold of Eq. 29 (0.6): windows below it hold a cut.
     z
@@ -273,6 +297,24 @@ class ARMASegmenter(Segmenter):
     r2_fit
         ``"window"``: each window's own fit gives its R² (default); ``"sequence"``: one fit of the
         whole differenced sequence, split into windows (the module docstring, step 7).
+    differencing
+        ``"adf"`` (default, the authors' code) or ``"fixed"`` (module docstring, step 2).
+    order
+        ``"aic"`` (default, the authors' code), ``"best_f"`` (Eq. 25) or ``"parsimonious"`` (step 6).
+    cut
+        ``"max_error"`` (default, the authors' code) or ``"min_sd"`` (Sec. 5.2; step 9).
+    select
+        ``"ensemble"`` (default, Eq. 32) or ``"auto"`` (step 10).
+    stats_width
+        ``select="auto"``: width in samples of the moving statistics the selection compares (30: 1 s
+        at 30 Hz).
+
+    Attributes
+    ----------
+    channels_ : list of dict
+        Per channel: ``cuts`` (downsampled samples), ``r2`` and ``bounds`` per window, ``orders``,
+        ``sd`` per sample, and ``windows``: per modelled window a dict with ``start``/``stop`` (first
+        and end sample of the modelled series), ``series``, ``resid``, ``order``, ``diff``, ``r2``.
     """
 
     def __init__(
@@ -602,15 +644,22 @@ class ARMASegmenter(Segmenter):
 
         if not candidates or np.ptp(x, axis=0).max() == 0:
             return []
-        f = standardise(window_stats(x, self.stats_width))
-        size = max(2, self.stats_width)
+        stride = max(1, -(-x.shape[0] // 2000))  # the DP's tables are quadratic in the samples
+        size = max(2, int(round(self.stats_width / stride)))
+        f = standardise(window_stats(x[::stride], size))
+        if f.shape[0] < 2 * size:
+            return []
         full = cost_curve(f, size, 30, "rbf")
         pen = slope_penalty(full.costs)
         if pen is None:
             return []
-        curve = cost_curve(f, size, 30, "rbf", candidates=candidates)
+        cand = sorted({int(round(c / stride)) for c in candidates} - {0, f.shape[0]})
+        cand = [c for c in cand if 0 < c < f.shape[0]]
+        if not cand:
+            return []
+        curve = cost_curve(f, size, 30, "rbf", candidates=cand)
         k = int(np.argmin(curve.costs + pen * np.arange(curve.costs.size)))
-        return [int(c) for c in curve.cuts(k)]
+        return [int(c) * stride for c in curve.cuts(k)]
 
     # -- API -----------------------------------------------------------------------------------
     def fit(self, X) -> "ARMASegmenter":

@@ -440,9 +440,7 @@ def name_actions(
 def name_segments(limbs: np.ndarray, cuts, rate_hz: float) -> Naming | None:
     """The found segments named by action class ("A B A C …", :func:`mocapkit.segment.naming.name_actions`
     on the limb angles, blocks of 2 s); None when no segment is long enough to be named."""
-    if limbs.shape[0] < 16:
+    bounds = np.concatenate([[0], np.asarray(cuts, dtype=np.int64), [limbs.shape[0]]])
+    if np.diff(bounds).max() < 16:  # no segment has the 16 frames a distance needs
         return None
-    try:
-        return name_actions(limbs, [int(c) for c in cuts], block=max(8, int(round(2.0 * rate_hz))))
-    except InvalidParameterError:  # every segment is shorter than the 16 frames a distance needs
-        return None
+    return name_actions(limbs, [int(c) for c in cuts], block=max(8, int(round(2.0 * rate_hz))))
