@@ -67,8 +67,8 @@ def _segment_costs(z: np.ndarray, cost: str, gamma: float | None) -> np.ndarray:
             S = np.zeros((n + 1, n + 1))
             S[1:, 1:] = K.cumsum(0).cumsum(1)
             d = np.concatenate([[0.0], np.cumsum(np.diag(K))])
-            e = np.arange(n + 1)
-            block = S[e[None, :], e[None, :]] - S[e[:, None], e[None, :]] - S[e[None, :], e[:, None]] + S[e[:, None], e[:, None]]
+            corner = np.diag(S)  # S[e, e]; S is symmetric, so the block sum is S[e,e] + S[s,s] - 2 S[s,e]
+            block = corner[None, :] + corner[:, None] - 2.0 * S
             T = (d[None, :] - d[:, None]) - block / lens
         elif cost == "l2":
             c1 = np.vstack([np.zeros(z.shape[1]), np.cumsum(z, 0)])
