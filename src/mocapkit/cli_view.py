@@ -1,0 +1,101 @@
+"""``mocapkit view FILE...``: the files drawn in the browser from a server on 127.0.0.1 (mocapkit.view), or
+rendered to a GIF/MP4 with ``--export``. Registered by :mod:`mocapkit.cli`; parses, calls, prints."""
+
+from __future__ import annotations
+
+import signal
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from mocapkit.cli_options import AsfOpt, StrictOpt, UnitCmOpt, _check_output, _progress, _within, console, err
+from mocapkit.errors import InvalidParameterError
+
+
+def _frame_range(text: Optional[str]) -> Optional[tuple[int, int]]:
+    if text is None:
+        return None
+    a, sep, b = text.partition(":")
+    try:
+        lo, hi = int(a), int(b)
+    except ValueError:
+        lo = hi = -1
+    if not sep or lo < 0 or hi <= lo:
+        raise InvalidParameterError(f"--frames {text!r}: give A:B, whole frames with 0 <= A < B")
+    return lo, hi
+
+
+def view(
+    files: Annotated[list[Path], typer.Argument(
+        metavar="FILE...", help="Skeletons (BVH, AMC, MVNX, .mkc, glTF/.glb), IMU files or sensor folders with "
+                                "their .mkp or points CSV, marker files (C3D, TSV, TRC). A skeleton with the "
+                                "joints of an earlier one is drawn as its decode; a .mkp after an IMU file "
+                                "as its compression.")],
+    segments: Annotated[Optional[Path], typer.Option(
+        "--segments", help="Cuts and labels from `mocapkit segment FILE --json` (of the first file).")] = None,
+    filter_json: Annotated[Optional[Path], typer.Option(
+        "--filter", help="Pieces and knots from `mocapkit filter MARKERS --json` (of the marker file).")] = None,
+    port: Annotated[int, typer.Option(
+        "--port", help="Port on 127.0.0.1 (default 0: a free one, printed).", callback=_within(0, 65535))] = 0,
+    no_browser: Annotated[bool, typer.Option("--no-browser", help="Do not open a browser; just serve.")] = False,
+    export: Annotated[Optional[Path], typer.Option(
+        "--export", help="Render the view to OUT.gif or OUT.mp4 (ffmpeg) instead of serving it.")] = None,
+    fps: Annotated[float, typer.Option(
+        "--fps", help="--export: frames per second of the video.", callback=_within(1, 240))] = 30.0,
+    frames: Annotated[Optional[str], typer.Option(
+        "--frames", help="--export: frames A:B of the first file only (0-based, B excluded).")] = None,
+    asf: AsfOpt = None,
+    unit_cm: UnitCmOpt = None,
+    strict: StrictOpt = True,
+) -> None:
+    """Look at motion: original and compressed skeletons or IMU orientations side by side with their
+    error, segment cuts on the timeline, marker trajectories with the filter's pieces and knots."""
+    from mocapkit.view.scene import build_scene
+
+    span = _frame_range(frames)
+    if export is not None:
+        _check_output(export, inputs=[*files, *(p for p in (segments, filter_json, asf) if p is not None)],
+                      option="--export")
+    elif frames is not None:
+        raise InvalidParameterError("--frames limits an --export; the page plays every frame")
+    with _progress("reading", None):
+        scene = build_scene(files, segments=segments, filter_json=filter_json, asf=asf, unit_cm=unit_cm,
+                            strict=strict)
+    for note in scene["notes"]:
+        err.print(f"note: {note}", markup=False, highlight=False)
+    if export is not None:
+        from mocapkit.view.export import export_scene
+
+        out = export_scene(scene, export, fps=fps, frames=span, progress=_progress)
+        console.print(f"{export}: {out['frames_written']} frames at {out['fps']:g} fps, {out['bytes']:,} bytes",
+                      markup=False, highlight=False)
+        return
+    _serve(scene, files, port, no_browser)
+
+
+def _serve(scene: dict, files: list[Path], port: int, no_browser: bool) -> None:
+    from mocapkit.view.server import ViewServer
+
+    server = ViewServer(scene, files, port=port)
+
+    def _stop(signum, frame):  # SIGTERM stops as Ctrl-C does
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, _stop)
+    try:
+        print(f"serving on {server.url}", flush=True)
+        err.print("press Ctrl-C to stop", highlight=False)
+        if not no_browser:
+            import webbrowser
+
+            if not webbrowser.open(server.url):
+                err.print(f"no browser found here: open {server.url} yourself", markup=False, highlight=False)
+        server.serve_forever()
+    except KeyboardInterrupt:
+        err.print("stopped", highlight=False)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        server.server_close()
+        sys.stdout.flush()

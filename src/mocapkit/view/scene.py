@@ -1,0 +1,226 @@
+"""The scene ``mocapkit view`` serves and ``--export`` renders: every file named on the command line read
+into one JSON-able dict (schema: docs/viewer.md). Skeletons with the joints of an earlier skeleton are
+its decode (error per joint); a ``.mkp`` or points CSV after an IMU file is its compressed points."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from mocapkit.errors import InvalidParameterError, MocapFormatError
+from mocapkit.view import imu_panel as imu
+from mocapkit.view.arrays import decode_array, encode_array
+from mocapkit.view.marker_panel import fitted_positions, marker_panel, read_filter_json
+from mocapkit.view.skeleton_panel import (GLTF_SUFFIXES, joint_errors, load_skeleton, same_skeleton, skeleton_panel,
+                                          world_positions)
+
+SCHEMA_VERSION = 1
+
+
+def file_kind(path: Path) -> str:
+    """``skeleton``, ``markers``, ``imu``, ``packets`` (``.mkp``) or ``points`` (a points CSV)."""
+    from mocapkit.io.loaders import kind_of
+
+    s = path.suffix.lower()
+    if not path.exists():
+        raise MocapFormatError(str(path), None, "no such file")
+    if s == ".mkp":
+        return "packets"
+    if s in GLTF_SUFFIXES:
+        return "skeleton"
+    if imu.is_points_csv(path):
+        return "points"
+    kind = kind_of(path)
+    if kind == "table":
+        raise InvalidParameterError(f"{path}: a table of values (joint angles...) has nothing to draw in 3-D; "
+                                    "the viewer shows skeletons, IMU orientations and markers")
+    return {"skeletal": "skeleton"}.get(kind, kind)
+
+
+def read_segments(path: Path) -> dict:
+    """The cuts and segments of a ``segment --json`` output, checked."""
+    from mocapkit.io.textinput import decode_text, read_input
+
+    text, _ = decode_text(read_input(path, "segments JSON"))
+    try:
+        rec = json.loads(text)
+    except json.JSONDecodeError as e:
+        raise MocapFormatError(str(path), e.lineno, f"not JSON ({e.msg})") from None
+    if not isinstance(rec, dict) or rec.get("job") != "segment" or not isinstance(rec.get("segments"), list):
+        raise MocapFormatError(str(path), None, "expected the output of `mocapkit segment --json` (a record with "
+                               "job \"segment\", cuts and segments)")
+    try:
+        cuts = [{"frame": int(c["frame"]), "time_s": float(c["time_s"])} for c in rec.get("cuts", [])]
+        segs = [{"t0": float(s["t0"]), "t1": float(s["t1"]), "frame0": int(s["frame0"]), "frame1": int(s["frame1"]),
+                 "label": None if s.get("label") is None else str(s["label"]),
+                 "action": None if s.get("action") is None else str(s["action"])} for s in rec["segments"]]
+        n_frames = int(rec["n_frames"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise MocapFormatError(str(path), None, f"a cut or segment lacks a field or a number ({e})") from None
+    return {"file": str(rec.get("file", "")), "method": rec.get("method"), "n_frames": n_frames,
+            "rate_hz": rec.get("rate_hz"), "cuts": cuts, "segments": segs}
+
+
+def _place_segments(seg: dict, where: Path, timeline: np.ndarray) -> dict:
+    """The segments on the timeline: frames index the timeline when the counts agree, else refused."""
+    if seg["n_frames"] != len(timeline):
+        raise InvalidParameterError(f"{where}: the segmentation is of {seg['n_frames']} frames "
+                                    f"({Path(seg['file']).name or 'its file'}), the first file has {len(timeline)}: "
+                                    "give the file that was segmented first")
+    for c in seg["cuts"]:
+        c["time_s"] = float(timeline[min(c["frame"], len(timeline) - 1)])
+    for s in seg["segments"]:
+        s["t0"] = float(timeline[min(s["frame0"], len(timeline) - 1)])
+        s["t1"] = float(timeline[min(max(s["frame1"] - 1, 0), len(timeline) - 1)])
+    return seg
+
+
+class _Builder:
+    def __init__(self, asf, unit_cm, strict):
+        self.asf, self.unit_cm, self.strict = asf, unit_cm, strict
+        self.panels: list[dict] = []
+        self.notes: list[str] = []
+        self.skeletons: list[tuple[str, Path, object, float | None]] = []  # originals: id, path, motion, unit
+        self.imus: list[tuple[str, Path, dict]] = []                        # originals: id, path, signals
+
+    def pid(self) -> str:
+        return f"p{len(self.panels)}"
+
+    def skeleton(self, path: Path) -> None:
+        motion, unit, bound = load_skeleton(path, self.asf if path.suffix.lower() == ".amc" else None, self.strict)
+        orig = next((o for o in reversed(self.skeletons) if same_skeleton(o[2], motion)), None)
+        if orig is None:
+            u = self.unit_cm or unit or 1.0
+            if self.unit_cm is None and unit is None:
+                self.notes.append(f"{path.name}: no length unit in the file; 1 unit = 1 cm assumed (--unit-cm)")
+            pid = self.pid()
+            self.skeletons.append((pid, path, motion, u))
+            self.panels.append(skeleton_panel(pid, path, motion, world_positions(motion, u), bound=bound))
+            return
+        opid, opath, omotion, ou = orig
+        u = self.unit_cm or unit or ou
+        if self.unit_cm is None and unit is not None and unit != ou:
+            self.notes = [n for n in self.notes if not n.startswith(f"{opath.name}: no length unit")]
+            self.notes.append(f"{opath.name}: no length unit in the file; drawn in the unit of {path.name} "
+                              f"({unit:g} cm), which it decodes")
+            ou = unit
+            self._rescale(opid, omotion, ou)
+        pos = world_positions(motion, u)
+        err = None
+        if motion.n_frames == omotion.n_frames and np.allclose(motion.times, omotion.times, atol=1e-6, rtol=0):
+            err = joint_errors(world_positions(omotion, ou), pos)
+        else:
+            self.notes.append(f"{path.name}: {motion.n_frames} frames, {opath.name} {omotion.n_frames}: "
+                              "no error per joint (the frames differ)")
+        self.panels.append(skeleton_panel(self.pid(), path, motion, pos, role="decoded", decoded_from=opid,
+                                          error=err, bound=bound))
+
+    def _rescale(self, pid: str, motion, unit: float) -> None:
+        for k, p in enumerate(self.panels):
+            if p["id"] == pid:
+                self.panels[k]["positions"] = encode_array(world_positions(motion, unit))
+        self.skeletons = [(i, pa, m, unit if i == pid else u) for i, pa, m, u in self.skeletons]
+
+    def imu_file(self, path: Path) -> None:
+        from mocapkit.io import load_signals
+
+        signals = load_signals(path)
+        pid = self.pid()
+        sensors = []
+        for name, sig in signals.items():
+            if sig.kind != "quaternion":
+                raise InvalidParameterError(f"{path}: {name} holds no orientations")
+            sensors.append(imu.sensor_entry(name, sig.times, sig.values, None, [], None))
+        self.imus.append((pid, path, signals))
+        self.panels.append(imu.imu_panel(pid, path, sensors, next(iter(signals.values())).times))
+
+    def compressed(self, path: Path, kind: str) -> None:
+        points, losses = imu.read_packets(path) if kind == "packets" else imu.read_points_csv(path)
+        self.notes.extend(losses)
+        orig = self.imus[-1] if self.imus else None
+        if orig is not None:
+            opid, opath, signals = orig
+            names = list(points)
+            if kind == "points" and len(points) == 1 and len(signals) == 1:
+                points = {next(iter(signals)): next(iter(points.values()))}
+            elif not set(points) & set(signals):
+                raise InvalidParameterError(f"{path}: its sensors ({', '.join(names)}) are not those of {opath} "
+                                            f"({', '.join(signals)}): give the original IMU file before it")
+            panel = next(p for p in self.panels if p["id"] == opid)
+            by_name = {s["name"]: k for k, s in enumerate(panel["sensors"])}
+            for name, pts in points.items():
+                if name not in signals:
+                    self.notes.append(f"{path.name}: sensor {name} is not in {opath.name}; not drawn")
+                    continue
+                sig = signals[name]
+                if len(pts.ticks) and pts.ticks[-1] >= len(sig):
+                    raise InvalidParameterError(f"{path}: {name} reaches sample {int(pts.ticks[-1])}, {opath} has "
+                                                f"{len(sig)}: not a compression of this file")
+                _, dec, kt = imu.decode(pts, len(sig))
+                entry = imu.sensor_entry(name, sig.times, sig.values, dec, sig.times[kt.astype(np.int64)],
+                                         pts.bound_deg)
+                panel["sensors"][by_name[name]] = entry
+            panel["file"] = f"{panel['file']} + {path}"
+            panel["name"] = f"{panel['name']} + {path.name}"
+            return
+        pid, sensors, first = self.pid(), [], None
+        for name, pts in points.items():
+            u, dec, kt = imu.decode(pts, None)
+            times = pts.own_times(u)
+            first = times if first is None else first
+            sensors.append(imu.sensor_entry(name, times, None, dec, pts.own_times(kt), pts.bound_deg))
+        if first is None:
+            raise MocapFormatError(str(path), None, "no sensor stream")
+        self.panels.append(imu.imu_panel(pid, path, sensors, first))
+
+    def markers(self, path: Path, filter_json: Path | None) -> None:
+        from mocapkit.io.loaders import load_markers
+
+        mk = load_markers(path)
+        fitted, knots = None, []
+        if filter_json is not None:
+            fitted, knots = fitted_positions(mk, read_filter_json(filter_json), str(filter_json))
+        self.panels.append(marker_panel(self.pid(), path, mk, fitted, knots))
+
+
+def build_scene(files, *, segments: Path | None = None, filter_json: Path | None = None, asf: Path | None = None,
+                unit_cm: float | None = None, strict: bool = True) -> dict:
+    """Read ``files`` (in order) into the scene of docs/viewer.md.
+
+    ``segments``: a ``segment --json`` output of the first file (its cuts and labels go on the timeline);
+    ``filter_json``: a ``filter --json`` output of the (first) marker file; ``asf`` for AMC files.
+    """
+    files = [Path(f) for f in files]
+    if not files:
+        raise InvalidParameterError("give at least one file to view")
+    b = _Builder(asf, unit_cm, strict)
+    fitted_for = None
+    for path in files:
+        kind = file_kind(path)
+        if kind == "skeleton":
+            b.skeleton(path)
+        elif kind == "imu":
+            b.imu_file(path)
+        elif kind in ("packets", "points"):
+            b.compressed(path, kind)
+        else:
+            b.markers(path, filter_json if fitted_for is None else None)
+            fitted_for = path
+    if filter_json is not None and fitted_for is None:
+        raise InvalidParameterError(f"--filter {filter_json}: no marker file (C3D, TSV, TRC, marker CSV) to draw it on")
+    first = b.panels[0]
+    times = (decode_array(first["sensors"][0]["times"]) if first["kind"] == "imu" and first["sensors"]
+             else decode_array(first["times"]))
+    rate = float(1.0 / np.median(np.diff(times))) if len(times) > 1 else None
+    seg = None
+    if segments is not None:
+        if first["kind"] != "skeleton":
+            raise InvalidParameterError(f"--segments {segments}: cuts are drawn on a skeleton's timeline; "
+                                        f"the first file, {files[0]}, is not a skeleton")
+        seg = _place_segments(read_segments(segments), segments, times)
+    return {"mocapkit_view": SCHEMA_VERSION, "title": " · ".join(p.name for p in files),
+            "timeline": {"times": encode_array(times, "float64"), "frames": int(len(times)), "rate_hz": rate,
+                         "source": first["id"]},
+            "segments": seg, "notes": b.notes, "panels": b.panels}

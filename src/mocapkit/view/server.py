@@ -1,0 +1,142 @@
+"""The viewer's HTTP server (standard library): 127.0.0.1 only, a fixed table of routes built at start.
+
+Routes: ``/`` (the page), ``/static/<file>`` (the files shipped in ``view/static``, three.js among them),
+``/scene.json`` and ``/files/<i>/<name>`` (the i-th file named on the command line, as it is on disk).
+A request is looked up in the table as sent, never decoded into a path, so ``../``, ``%2e%2e``,
+absolute paths and every file not named cannot be reached; a Host header other than the server's own
+address (DNS rebinding) is refused, as are methods other than GET and HEAD.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from http import HTTPStatus
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from importlib import resources
+from pathlib import Path
+from urllib.parse import quote
+
+from mocapkit.errors import MocapError
+
+HOST = "127.0.0.1"
+CONTENT_TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8",
+                 ".css": "text/css; charset=utf-8", ".json": "application/json", ".png": "image/png",
+                 ".svg": "image/svg+xml"}
+#: nothing but this server: scripts, styles, images and fetches from 'self' (the importmap is inline)
+HEADERS = {
+    "Content-Security-Policy": "default-src 'self'; script-src 'self' 'unsafe-inline'; style-src 'self' "
+                               "'unsafe-inline'; img-src 'self' data: blob:; connect-src 'self'; object-src 'none'; "
+                               "base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
+    "X-Content-Type-Options": "nosniff",
+    "Referrer-Policy": "no-referrer",
+    "Cache-Control": "no-store",
+    "Cross-Origin-Resource-Policy": "same-origin",
+}
+
+
+def static_dir() -> Path:
+    return Path(str(resources.files("mocapkit.view") / "static"))
+
+
+def _content_type(name: str) -> str:
+    return CONTENT_TYPES.get(Path(name).suffix.lower(), "text/plain; charset=utf-8")
+
+
+def routes(scene: dict, files: list[Path]) -> dict[str, tuple[str, object]]:
+    """``{request path: (content type, bytes | Path)}``: everything the server will ever send."""
+    root = static_dir()
+    table: dict[str, tuple[str, object]] = {}
+    for f in sorted(root.rglob("*")):
+        if f.is_file() and not f.name.startswith("."):
+            rel = f.relative_to(root).as_posix()
+            table["/static/" + quote(rel)] = (_content_type(rel), f)
+    index = root / "index.html"
+    table["/"] = table["/index.html"] = (CONTENT_TYPES[".html"], index)
+    table["/scene.json"] = ("application/json", json.dumps(scene, allow_nan=False, separators=(",", ":")).encode())
+    for i, f in enumerate(files):
+        f = Path(f)
+        if f.is_file():
+            table[f"/files/{i}/{quote(f.name)}"] = ("application/octet-stream", f.resolve())
+    return table
+
+
+class _Handler(BaseHTTPRequestHandler):
+    server_version = "mocapkit-view"
+    sys_version = ""
+    protocol_version = "HTTP/1.1"
+
+    def _refuse(self, status: HTTPStatus, why: str) -> None:
+        body = f"{status.value} {status.phrase}: {why}\n".encode()
+        self.send_response(status)
+        self.send_header("Content-Type", "text/plain; charset=utf-8")
+        self.send_header("Content-Length", str(len(body)))
+        for k, v in HEADERS.items():
+            self.send_header(k, v)
+        self.end_headers()
+        if self.command != "HEAD":
+            self.wfile.write(body)
+
+    def _serve(self, head: bool) -> None:
+        host = self.headers.get("Host", "")
+        if host not in self.server.allowed_hosts:
+            return self._refuse(HTTPStatus.FORBIDDEN, f"host {host!r} is not this server")
+        target = self.path.split("?", 1)[0].split("#", 1)[0]
+        entry = self.server.table.get(target)
+        if entry is None:
+            return self._refuse(HTTPStatus.NOT_FOUND, "only the viewer's page and the files named on the command "
+                                                      "line are served")
+        ctype, body = entry
+        try:
+            data = body.read_bytes() if isinstance(body, Path) else body
+        except OSError as e:
+            return self._refuse(HTTPStatus.NOT_FOUND, f"{e.strerror}")
+        self.send_response(HTTPStatus.OK)
+        self.send_header("Content-Type", ctype)
+        self.send_header("Content-Length", str(len(data)))
+        for k, v in HEADERS.items():
+            self.send_header(k, v)
+        self.end_headers()
+        if not head:
+            self.wfile.write(data)
+
+    def do_GET(self) -> None:  # noqa: N802 - the standard library's names
+        self._serve(head=False)
+
+    def do_HEAD(self) -> None:  # noqa: N802
+        self._serve(head=True)
+
+    def _not_allowed(self) -> None:
+        self._refuse(HTTPStatus.METHOD_NOT_ALLOWED, "the viewer is read-only (GET, HEAD)")
+
+    do_POST = do_PUT = do_DELETE = do_PATCH = do_OPTIONS = _not_allowed
+
+    def log_message(self, format, *args) -> None:  # noqa: A002 - quiet: the command prints its own lines
+        if self.server.log is not None:
+            self.server.log(f"{self.address_string()} {format % args}")
+
+
+class ViewServer(ThreadingHTTPServer):
+    """``ViewServer(scene, files, port=0)``: bound to 127.0.0.1 (a free port when ``port`` is 0)."""
+
+    daemon_threads = True
+
+    def __init__(self, scene: dict, files: list[Path], port: int = 0, log=None):
+        self.table = routes(scene, files)
+        self.log = log
+        try:
+            super().__init__((HOST, int(port)), _Handler)
+        except OSError as e:
+            raise MocapError(f"cannot listen on {HOST}:{port}: {e.strerror or e}") from None
+        p = self.server_address[1]
+        self.allowed_hosts = {f"{HOST}:{p}", f"localhost:{p}"}
+
+    @property
+    def url(self) -> str:
+        return f"http://{HOST}:{self.server_address[1]}/"
+
+    def start_thread(self) -> threading.Thread:
+        """Serve on a background thread (tests); stop with ``shutdown()`` then ``server_close()``."""
+        t = threading.Thread(target=self.serve_forever, name="mocapkit-view", daemon=True)
+        t.start()
+        return t

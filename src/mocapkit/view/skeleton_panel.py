@@ -1,0 +1,68 @@
+"""Skeleton panels of the scene: world joint positions by forward kinematics, in centimetres, and
+each decoded joint's distance to the same joint of its original (the error the page colours by)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from mocapkit.skeleton import Motion, forward_kinematics
+from mocapkit.view.arrays import encode_array
+
+#: suffixes read by :func:`load_skeleton` (glTF through the glTF reader, the rest through ``load_motion``)
+GLTF_SUFFIXES = (".glb", ".gltf")
+
+
+def load_skeleton(path: Path, asf: Path | None, strict: bool) -> tuple[Motion, float | None, float | None]:
+    """``(motion, unit_cm or None when the file does not say, bound in cm or None)``."""
+    from mocapkit.io.loaders import load_motion
+
+    if path.suffix.lower() in GLTF_SUFFIXES:
+        from mocapkit.io.gltf import read_gltf
+
+        motion = read_gltf(path)
+    else:
+        motion = load_motion(path, asf=asf, strict=strict)
+    unit = motion.skeleton.meta.get("length_unit_cm")
+    bound = None
+    if path.suffix.lower() == ".mkc":
+        from mocapkit.io.mkc_reader import Clip
+
+        info = Clip(path).info()
+        b = info.get("bound") or {}
+        if isinstance(b, dict) and b.get("value") is not None:
+            bound = float(b["value"]) * float(info["unit_cm"])
+        unit = info["unit_cm"] if unit is None else unit
+    return motion, (None if unit is None else float(unit)), bound
+
+
+def world_positions(motion: Motion, unit_cm: float) -> np.ndarray:
+    """``(n, J, 3)`` joint positions in cm."""
+    pos, _ = forward_kinematics(motion)
+    return np.asarray(pos, dtype=np.float64) * unit_cm
+
+
+def same_skeleton(a: Motion, b: Motion) -> bool:
+    """A decode of ``a``: the same joint names in the same order and the same parents."""
+    return list(a.skeleton.names) == list(b.skeleton.names) and list(a.skeleton.parents) == list(b.skeleton.parents)
+
+
+def joint_errors(original: np.ndarray, decoded: np.ndarray) -> np.ndarray:
+    """``(n, J)`` distance of each decoded joint to the original joint at the same frame."""
+    return np.linalg.norm(decoded - original, axis=-1)
+
+
+def skeleton_panel(pid: str, path: Path, motion: Motion, positions: np.ndarray, *, role: str = "original",
+                   decoded_from: str | None = None, error: np.ndarray | None = None,
+                   bound: float | None = None) -> dict:
+    """The panel dict of docs/viewer.md (``kind: "skeleton"``)."""
+    return {
+        "id": pid, "kind": "skeleton", "file": str(path), "name": path.name, "up": "y",
+        "times": encode_array(motion.times, "float64"),
+        "joints": list(motion.skeleton.names), "parents": [int(p) for p in motion.skeleton.parents],
+        "unit": "cm", "positions": encode_array(positions), "role": role, "decoded_from": decoded_from,
+        "error": None if error is None else encode_array(error),
+        "max_error": None if error is None or error.size == 0 else float(error.max()),
+        "bound": bound,
+    }
