@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 
-.PHONY: demo test bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
+.PHONY: view-deps demo test bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
 
 # the C encoders (c/mkpla) are compiled into the package by pip (setup.py: cffi); a changed C source rebuilds
 $(STAMP): pyproject.toml Makefile setup.py c/mkpla_cffi.py $(wildcard c/mkpla/*.c c/mkpla/*.h)
@@ -20,10 +20,20 @@ $(NODE_STAMP): $(STAMP)
 		npm install --prefix $(VENV)/node gltf-validator@2.0.0-dev.3.10 gltfpack@1.3.0 --no-audit --no-fund --silent && touch $(NODE_STAMP); \
 	else echo "npm not found: the glTF validator tests will be skipped"; fi
 
+# the viewer's browser tests run Debian's chromium (headless, driven by playwright with executable_path)
+# and the --export tests Debian's ffmpeg; installed here when root with apt, else those tests skip with a reason
+view-deps:
+	@if [ -x /usr/bin/chromium ] && command -v ffmpeg >/dev/null; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		echo "installing chromium and ffmpeg (apt)"; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium ffmpeg >/dev/null 2>&1 || \
+		{ apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends chromium ffmpeg >/dev/null; }; \
+	else echo "chromium/ffmpeg missing and not root: the viewer's browser and mp4 tests will be skipped"; fi
+
 demo: $(STAMP)
 	$(BIN)/mocapkit demo
 
-test: $(STAMP) $(NODE_STAMP)
+test: $(STAMP) $(NODE_STAMP) view-deps
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)

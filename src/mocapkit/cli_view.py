@@ -10,7 +10,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from mocapkit.cli_options import AsfOpt, StrictOpt, UnitCmOpt, _check_output, _progress, _within, console, err
+from mocapkit.cli_options import AsfOpt, SegRateOpt, StrictOpt, UnitCmOpt, _check_output, _progress, _within, console, err
 from mocapkit.errors import InvalidParameterError
 
 
@@ -47,6 +47,7 @@ def view(
     frames: Annotated[Optional[str], typer.Option(
         "--frames", help="--export: frames A:B of the first file only (0-based, B excluded).")] = None,
     asf: AsfOpt = None,
+    rate: SegRateOpt = None,
     unit_cm: UnitCmOpt = None,
     strict: StrictOpt = True,
 ) -> None:
@@ -62,7 +63,7 @@ def view(
         raise InvalidParameterError("--frames limits an --export; the page plays every frame")
     with _progress("reading", None):
         scene = build_scene(files, segments=segments, filter_json=filter_json, asf=asf, unit_cm=unit_cm,
-                            strict=strict)
+                            strict=strict, rate=rate)
     for note in scene["notes"]:
         err.print(f"note: {note}", markup=False, highlight=False)
     if export is not None:

@@ -78,8 +78,8 @@ def _place_segments(seg: dict, where: Path, timeline: np.ndarray) -> dict:
 
 
 class _Builder:
-    def __init__(self, asf, unit_cm, strict):
-        self.asf, self.unit_cm, self.strict = asf, unit_cm, strict
+    def __init__(self, asf, unit_cm, strict, rate):
+        self.asf, self.unit_cm, self.strict, self.rate = asf, unit_cm, strict, rate
         self.panels: list[dict] = []
         self.notes: list[str] = []
         self.skeletons: list[tuple[str, Path, object, float | None]] = []  # originals: id, path, motion, unit
@@ -89,7 +89,8 @@ class _Builder:
         return f"p{len(self.panels)}"
 
     def skeleton(self, path: Path) -> None:
-        motion, unit, bound = load_skeleton(path, self.asf if path.suffix.lower() == ".amc" else None, self.strict)
+        amc = path.suffix.lower() == ".amc"
+        motion, unit, bound = load_skeleton(path, self.asf if amc else None, self.strict, self.rate if amc else None)
         orig = next((o for o in reversed(self.skeletons) if same_skeleton(o[2], motion)), None)
         if orig is None:
             u = self.unit_cm or unit or 1.0
@@ -186,16 +187,17 @@ class _Builder:
 
 
 def build_scene(files, *, segments: Path | None = None, filter_json: Path | None = None, asf: Path | None = None,
-                unit_cm: float | None = None, strict: bool = True) -> dict:
+                unit_cm: float | None = None, strict: bool = True, rate: float | None = None) -> dict:
     """Read ``files`` (in order) into the scene of docs/viewer.md.
 
     ``segments``: a ``segment --json`` output of the first file (its cuts and labels go on the timeline);
-    ``filter_json``: a ``filter --json`` output of the (first) marker file; ``asf`` for AMC files.
+    ``filter_json``: a ``filter --json`` output of the (first) marker file; ``asf`` and ``rate`` (Hz) for
+    AMC files (CMU's 120 Hz when not given).
     """
     files = [Path(f) for f in files]
     if not files:
         raise InvalidParameterError("give at least one file to view")
-    b = _Builder(asf, unit_cm, strict)
+    b = _Builder(asf, unit_cm, strict, rate)
     fitted_for = None
     for path in files:
         kind = file_kind(path)

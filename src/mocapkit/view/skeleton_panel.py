@@ -14,8 +14,9 @@ from mocapkit.view.arrays import encode_array
 GLTF_SUFFIXES = (".glb", ".gltf")
 
 
-def load_skeleton(path: Path, asf: Path | None, strict: bool) -> tuple[Motion, float | None, float | None]:
-    """``(motion, unit_cm or None when the file does not say, bound in cm or None)``."""
+def load_skeleton(path: Path, asf: Path | None, strict: bool, rate: float | None = None
+                  ) -> tuple[Motion, float | None, float | None]:
+    """AMC files take ``asf`` and ``rate``. ``(motion, unit_cm or None when the file does not say, bound in cm or None)``."""
     from mocapkit.io.loaders import load_motion
 
     if path.suffix.lower() in GLTF_SUFFIXES:
@@ -23,7 +24,7 @@ def load_skeleton(path: Path, asf: Path | None, strict: bool) -> tuple[Motion, f
 
         motion = read_gltf(path)
     else:
-        motion = load_motion(path, asf=asf, strict=strict)
+        motion = load_motion(path, asf=asf, rate=rate, strict=strict)
     unit = motion.skeleton.meta.get("length_unit_cm")
     bound = None
     if path.suffix.lower() == ".mkc":

@@ -1,0 +1,169 @@
+"""The viewer's scene (docs/viewer.md): what every panel holds, checked against the files read another
+way — the BVH text itself, the compress job's own error figures, the filter's CSV output — and the
+refusals (a segmentation of another take, a .mkp of other sensors, a table)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mocapkit.errors import InvalidParameterError, MocapFormatError
+from mocapkit.view.arrays import decode_array, encode_array
+from mocapkit.view.scene import build_scene
+
+DATA = Path(__file__).parent / "data"
+BVH = DATA / "bvh" / "walk-meredith-60.bvh"
+CLIP = DATA / "clip" / "walk-meredith-60.mkc"
+FREYA = DATA / "bvh" / "perception-neuron-freya-12.bvh"
+XIO = DATA / "xio"
+NGIMU = DATA / "imu" / "xio" / "ngimu_quaternion.csv"
+TSV = DATA / "markers" / "juggling-qualisys-300hz-first120.tsv"
+
+
+def mocapkit(*args, check=True) -> subprocess.CompletedProcess:
+    r = subprocess.run([sys.executable, "-m", "mocapkit", *map(str, args)], capture_output=True, text=True, timeout=300)
+    if check:
+        assert r.returncode == 0, r.stderr
+    return r
+
+
+def test_arrays_round_trip_bit_exact_with_nan():
+    a = np.array([[1.5, np.nan], [-0.0, 1e-300]])
+    assert np.array_equal(decode_array(encode_array(a, "float64")), a, equal_nan=True)
+    b = decode_array(encode_array(a))
+    assert b.dtype == np.float32 and np.array_equal(b, a.astype(np.float32), equal_nan=True)
+    bad = encode_array(a)
+    bad["shape"] = [3, 2]
+    with pytest.raises(MocapFormatError, match="do not hold"):
+        decode_array(bad)
+
+
+def _bvh_root_positions(path: Path) -> np.ndarray:
+    """The root's position channels straight from the BVH text (first three values of every frame)."""
+    lines = path.read_text().splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith("Frame Time")) + 1
+    return np.array([[float(v) for v in ln.split()[:3]] for ln in lines[start:] if ln.strip()])
+
+
+def test_a_skeleton_and_its_clip(tmp_path):
+    scene = json.loads(json.dumps(build_scene([BVH, CLIP]), allow_nan=False))  # strict JSON throughout
+    orig, dec = scene["panels"]
+    assert scene["timeline"]["frames"] == 60 and orig["role"] == "original" and dec["decoded_from"] == orig["id"]
+    pos = decode_array(orig["positions"])
+    assert pos.shape == (60, len(orig["joints"]), 3)
+    # the clip knows its unit (2.54 cm per inch): the BVH it decodes is drawn in the same unit
+    root = orig["parents"].index(-1)
+    np.testing.assert_allclose(pos[:, root], _bvh_root_positions(BVH) * 2.54, rtol=0, atol=1e-4)
+    assert any("2.54 cm" in n for n in scene["notes"])
+    err = decode_array(dec["error"]).astype(np.float64)
+    expect = np.linalg.norm(decode_array(dec["positions"]).astype(np.float64) - pos, axis=-1)
+    np.testing.assert_allclose(err, expect, atol=1e-4)
+    assert 0 < dec["max_error"] <= dec["bound"] + 1e-6  # the clip's bound (cm) holds at every joint
+    assert abs(dec["bound"] - 0.05) < 1e-9
+
+
+def test_two_different_skeletons_are_two_originals():
+    scene = build_scene([BVH, FREYA])
+    assert [p["role"] for p in scene["panels"]] == ["original", "original"]
+    assert all(p["error"] is None for p in scene["panels"])
+
+
+def test_imu_and_its_packets_match_the_compress_job(tmp_path):
+    mkp = tmp_path / "x.mkp"
+    rec = json.loads(mocapkit("compress", XIO, "--max-angle", "2", "-o", mkp, "--json").stdout)
+    by_name = {s["name"]: s for s in (rec if isinstance(rec, list) else rec["signals"])}
+    scene = build_scene([XIO, mkp])
+    (panel,) = scene["panels"]
+    assert {s["name"] for s in panel["sensors"]} == set(by_name)
+    for s in panel["sensors"]:
+        err = decode_array(s["error_deg"])
+        assert np.isfinite(err).all() and s["bound_deg"] == 2.0
+        assert s["max_error_deg"] == pytest.approx(by_name[s["name"]]["max_deg"], abs=1e-4)
+        assert len(decode_array(s["keyframes"])) == by_name[s["name"]]["n_points"]
+        q, d = decode_array(s["original"]), decode_array(s["decoded"])
+        assert q.shape == d.shape == (by_name[s["name"]]["n_samples"], 4)
+    assert scene["timeline"]["frames"] == by_name[panel["sensors"][0]["name"]]["n_samples"]
+
+
+def test_points_csv_and_a_lone_mkp(tmp_path):
+    mkp, pts = tmp_path / "n.mkp", tmp_path / "n.csv"
+    rec = json.loads(mocapkit("compress", NGIMU, "--max-angle", "2", "-o", mkp, "--json").stdout)
+    mocapkit("decompress", mkp, "-o", pts)
+    sig = (rec if isinstance(rec, list) else rec["signals"])[0]
+    (s,) = build_scene([NGIMU, pts])["panels"][0]["sensors"]
+    assert s["max_error_deg"] == pytest.approx(sig["max_deg"], abs=1e-4)
+    (lone,) = build_scene([mkp])["panels"][0]["sensors"]
+    assert lone["original"] is None and np.isfinite(decode_array(lone["decoded"])).all()
+    assert len(decode_array(lone["times"])) == sig["n_samples"]  # every tick from the first to the last point
+
+
+def test_packets_of_other_sensors_are_refused(tmp_path):
+    mkp = tmp_path / "x.mkp"
+    mocapkit("compress", XIO, "--max-angle", "2", "-o", mkp)
+    with pytest.raises(InvalidParameterError, match="not those of"):
+        build_scene([NGIMU, mkp])
+
+
+def test_markers_with_the_filter_pieces_equal_the_filtered_csv(tmp_path):
+    from mocapkit.io.loaders import load_markers
+
+    mk = load_markers(TSV)
+    chosen = mk.labels[:2]
+    fit_json, fit_csv = tmp_path / "fit.json", tmp_path / "fit.csv"
+    fit_json.write_text(mocapkit("filter", TSV, "--markers", ",".join(chosen), "--auto", "--json").stdout)
+    mocapkit("filter", TSV, "--markers", ",".join(chosen), "--auto", "-o", fit_csv)
+    table = np.loadtxt(fit_csv, delimiter=",", skiprows=1)
+    scene = build_scene([TSV], filter_json=fit_json)
+    (panel,) = scene["panels"]
+    fitted = decode_array(panel["fitted"]).astype(np.float64)
+    for k, label in enumerate(chosen):
+        m = mk.labels.index(label)
+        ok = ~np.isnan(table[:, 1 + 3 * k])
+        np.testing.assert_allclose(fitted[ok, m], table[ok, 1 + 3 * k:4 + 3 * k], rtol=0, atol=1e-3)
+    assert np.isnan(fitted[:, [mk.labels.index(x) for x in mk.labels[2:]]]).all()
+    sigs = json.loads(fit_json.read_text())
+    for kn in panel["knots"]:
+        label = mk.labels[kn["marker"]]
+        expect = sorted({p["t0"] for s in sigs if s["name"] == label for p in s["pieces"][1:]})
+        assert kn["times"] == pytest.approx(expect)
+    assert np.array_equal(decode_array(panel["positions"]), mk.positions.astype(np.float32), equal_nan=True)
+
+
+def test_filter_json_of_another_file_is_refused(tmp_path):
+    bad = tmp_path / "fit.json"
+    bad.write_text(json.dumps([{"name": "NOPE", "components": ["NOPE_x"], "pieces": [{"t0": 0, "t1": 1, "coeffs": [1]}]}]))
+    with pytest.raises(MocapFormatError, match="NOPE_x"):
+        build_scene([TSV], filter_json=bad)
+    bad.write_text("[{\"name\": 1,\n oops")
+    with pytest.raises(MocapFormatError, match=r"fit\.json:2"):
+        build_scene([TSV], filter_json=bad)
+
+
+def test_segments_on_the_timeline_and_refused_for_another_take(tmp_path):
+    amc, asf = DATA / "cmu" / "86_01_15hz_first1600.amc", DATA / "cmu" / "86.asf"
+    seg = tmp_path / "seg.json"
+    seg.write_text(mocapkit("segment", amc, "--asf", asf, "--method", "auto", "--rate", "15", "--json").stdout)
+    rec = json.loads(seg.read_text())
+    assert rec["cuts"], "the excerpt has several actions"
+    scene = build_scene([amc], segments=seg, asf=asf, rate=15)
+    times = decode_array(scene["timeline"]["times"])
+    assert [c["frame"] for c in scene["segments"]["cuts"]] == [c["frame"] for c in rec["cuts"]]
+    assert [c["time_s"] for c in scene["segments"]["cuts"]] == [times[c["frame"]] for c in rec["cuts"]]
+    assert [s["action"] for s in scene["segments"]["segments"]] == [s["action"] for s in rec["segments"]]
+    with pytest.raises(InvalidParameterError, match=f"{rec['n_frames']} frames"):
+        build_scene([BVH], segments=seg)
+    seg.write_text(json.dumps({"job": "filter"}))
+    with pytest.raises(MocapFormatError, match="segment --json"):
+        build_scene([BVH], segments=seg)
+
+
+def test_a_table_and_nothing_are_refused():
+    with pytest.raises(InvalidParameterError, match="nothing to draw"):
+        build_scene([DATA / "opensim" / "subject01_walk1_ik-first20.mot"])
+    with pytest.raises(InvalidParameterError):
+        build_scene([])
