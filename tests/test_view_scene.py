@@ -167,3 +167,11 @@ def test_a_table_and_nothing_are_refused():
         build_scene([DATA / "opensim" / "subject01_walk1_ik-first20.mot"])
     with pytest.raises(InvalidParameterError):
         build_scene([])
+
+
+def test_a_gltf_decode_is_paired_and_within_its_bound(tmp_path):
+    glb = tmp_path / "w.glb"
+    mocapkit("compress", BVH, "--max-position-error", "0.5", "-o", glb)
+    orig, dec = build_scene([BVH, glb])["panels"]
+    assert dec["role"] == "decoded" and dec["decoded_from"] == orig["id"]
+    assert 0 < dec["max_error"] <= 0.5 + 1e-6
