@@ -121,7 +121,9 @@ def test_other_hosts_and_methods_are_refused(server):
     conn.request("HEAD", "/scene.json")
     r = conn.getresponse()
     assert r.status == 200 and r.read() == b"" and int(r.getheader("Content-Length")) > 0
-    assert "default-src 'self'" in r.getheader("Content-Security-Policy")
+    csp = r.getheader("Content-Security-Policy")
+    script_src = next(d for d in csp.split(";") if d.strip().startswith("script-src"))
+    assert "default-src 'self'" in csp and "'unsafe-inline'" not in script_src and "'sha256-" in script_src
     conn.close()
 
 

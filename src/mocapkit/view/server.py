@@ -9,7 +9,10 @@ address (DNS rebinding) is refused, as are methods other than GET and HEAD.
 
 from __future__ import annotations
 
+import base64
+import hashlib
 import json
+import re
 import threading
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -23,11 +26,21 @@ HOST = "127.0.0.1"
 CONTENT_TYPES = {".html": "text/html; charset=utf-8", ".js": "text/javascript; charset=utf-8",
                  ".css": "text/css; charset=utf-8", ".json": "application/json", ".png": "image/png",
                  ".svg": "image/svg+xml"}
-#: nothing but this server: scripts, styles, images and fetches from 'self' (the importmap is inline)
+#: nothing but this server: scripts, styles, images and fetches from 'self'; the one inline script, the
+#: importmap, is allowed by its hash (:func:`security_headers`)
+CSP = ("default-src 'self'; script-src 'self' {hashes}; style-src 'self' 'unsafe-inline'; img-src 'self' data: blob:; "
+       "connect-src 'self'; object-src 'none'; base-uri 'none'; form-action 'none'; frame-ancestors 'none'")
+_INLINE_SCRIPT = re.compile(rb"<script(?![^>]*\bsrc=)[^>]*>(.*?)</script>", re.S | re.I)
+
+
+def security_headers(index_html: bytes) -> dict[str, str]:
+    """The headers of every answer; the CSP names the sha256 of each inline script of the page."""
+    hashes = " ".join(f"'sha256-{base64.b64encode(hashlib.sha256(m).digest()).decode()}'"
+                      for m in _INLINE_SCRIPT.findall(index_html))
+    return {"Content-Security-Policy": CSP.format(hashes=hashes).replace("  ", " "), **HEADERS}
+
+
 HEADERS = {
-    "Content-Security-Policy": "default-src 'self'; script-src 'self' 'unsafe-inline'; style-src 'self' "
-                               "'unsafe-inline'; img-src 'self' data: blob:; connect-src 'self'; object-src 'none'; "
-                               "base-uri 'none'; form-action 'none'; frame-ancestors 'none'",
     "X-Content-Type-Options": "nosniff",
     "Referrer-Policy": "no-referrer",
     "Cache-Control": "no-store",
@@ -71,7 +84,7 @@ class _Handler(BaseHTTPRequestHandler):
         self.send_response(status)
         self.send_header("Content-Type", "text/plain; charset=utf-8")
         self.send_header("Content-Length", str(len(body)))
-        for k, v in HEADERS.items():
+        for k, v in self.server.answer_headers.items():
             self.send_header(k, v)
         self.end_headers()
         if self.command != "HEAD":
@@ -94,7 +107,7 @@ class _Handler(BaseHTTPRequestHandler):
         self.send_response(HTTPStatus.OK)
         self.send_header("Content-Type", ctype)
         self.send_header("Content-Length", str(len(data)))
-        for k, v in HEADERS.items():
+        for k, v in self.server.answer_headers.items():
             self.send_header(k, v)
         self.end_headers()
         if not head:
@@ -123,6 +136,7 @@ class ViewServer(ThreadingHTTPServer):
 
     def __init__(self, scene: dict, files: list[Path], port: int = 0, log=None):
         self.table = routes(scene, files)
+        self.answer_headers = security_headers((static_dir() / "index.html").read_bytes())
         self.log = log
         try:
             super().__init__((HOST, int(port)), _Handler)

@@ -1,0 +1,226 @@
+// mocapkit view: loads /scene.json, builds one panel per scene panel in a three.js view, runs the
+// timeline, and fills in the test hooks of window.mocapkitView (see hooks.js and docs/viewer.md).
+
+import {
+  AmbientLight, Box3, Color, DirectionalLight, PerspectiveCamera, Scene, Vector3, WebGLRenderer,
+} from "three";
+import { OrbitControls } from "three/addons/OrbitControls.js";
+import { decodeArray } from "./arrays.js";
+import { drawLegend } from "./colors.js";
+import { ImuPanel } from "./imu.js";
+import { MarkerPanel } from "./markers.js";
+import { SkeletonPanel } from "./skeleton.js";
+import { Timeline } from "./timeline.js";
+
+const BACKGROUND = "#1d2026";
+const hooks = window.mocapkitView;
+
+function status(text, isError = false) {
+  const el = document.getElementById("status");
+  el.textContent = text;
+  el.classList.toggle("error", isError);
+}
+
+function listItems(id, items) {
+  const ul = document.getElementById(id);
+  ul.replaceChildren(...items.map((node) => {
+    const li = document.createElement("li");
+    li.append(...(Array.isArray(node) ? node : [node]));
+    return li;
+  }));
+}
+
+/** The file list of the header: one item per panel, with its kind and role. */
+function describeFiles(scene) {
+  return scene.panels.map((p) => {
+    const b = document.createElement("b");
+    b.textContent = p.name;
+    const what = p.kind === "skeleton" ? `skeleton, ${p.role || "original"}` : p.kind;
+    const extra = p.kind === "skeleton" && p.max_error !== null && p.max_error !== undefined
+      ? `, max error ${p.max_error.toFixed(2)} cm` + (p.bound !== null && p.bound !== undefined ? ` (bound ${p.bound} cm)` : "")
+      : "";
+    return [b, ` (${what}${extra})`];
+  });
+}
+
+class View {
+  constructor(scene) {
+    this.scene = scene;
+    this.pending = false; // an animation frame is requested
+    const host = document.getElementById("view3d");
+    this.renderer = new WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(devicePixelRatio);
+    this.renderer.setClearColor(new Color(BACKGROUND), 1);
+    host.append(this.renderer.domElement);
+    this.world = new Scene();
+    this.world.add(new AmbientLight(0xffffff, 1.6));
+    const sun = new DirectionalLight(0xffffff, 2.2);
+    sun.position.set(0.5, 1, 0.8);
+    this.world.add(sun);
+    this.camera = new PerspectiveCamera(40, 1, 0.1, 1000);
+    this.controls = new OrbitControls(this.camera, this.renderer.domElement);
+    this.controls.addEventListener("change", () => this.requestRender());
+
+    const times = decodeArray(scene.timeline.times, "timeline times").data;
+    this.times = times;
+    const start = times.length ? times[0] : 0;
+    const end = times.length ? times[times.length - 1] : 0;
+    const plots = document.getElementById("plots");
+    this.panels = scene.panels.map((spec) => {
+      if (spec.kind === "skeleton") return new SkeletonPanel(spec);
+      if (spec.kind === "imu") return new ImuPanel(spec, plots, start, end);
+      if (spec.kind === "markers") return new MarkerPanel(spec);
+      throw new Error(`panel ${spec.id}: unknown kind ${JSON.stringify(spec.kind)}`);
+    });
+    for (const p of this.panels) this.world.add(p.root);
+    this.legends();
+
+    this.layoutSelect = document.getElementById("layout");
+    this.layoutSelect.addEventListener("change", () => { this.layout(); this.render(); });
+    this.timeline = new Timeline(times, scene.segments, (f) => this.drawFrame(f), () => this.requestRender());
+    this.resize();
+    this.layout();
+    new ResizeObserver(() => { this.resize(); this.render(); }).observe(host);
+    this.timeline.setFrame(0);
+  }
+
+  /** One legend per decoded skeleton: its error scale in cm. */
+  legends() {
+    const box = document.getElementById("legends");
+    for (const p of this.panels) {
+      if (!(p instanceof SkeletonPanel) || !p.error) continue;
+      const div = document.createElement("div");
+      div.className = "legend";
+      div.dataset.panel = p.id;
+      const spec = p.spec;
+      const title = document.createElement("h2");
+      const upTo = spec.bound !== null && spec.bound !== undefined ? `the bound, ${spec.bound} cm` : "the largest error";
+      title.textContent = `${spec.name}: joint error (cm), 0 to ${upTo}`;
+      const canvas = document.createElement("canvas");
+      canvas.width = 280;
+      canvas.height = 34;
+      div.append(title, canvas);
+      box.append(div);
+      drawLegend(canvas, p.scaleMax);
+    }
+  }
+
+  /** Side by side (each panel offset along x by the widths before it) or overlaid; frame the camera. */
+  layout() {
+    const side = this.layoutSelect.value !== "overlay";
+    let x = 0;
+    const all = new Box3();
+    this.panels.forEach((p, i) => {
+      const box = p.localBox();
+      p.placeLabel(box, side ? 0 : i); // overlaid: the labels stacked
+      const width = box.max.x - box.min.x;
+      const gap = 0.15 * Math.max(width, box.max.y - box.min.y);
+      const dx = side ? x - box.min.x : 0;
+      p.root.position.set(dx, 0, 0);
+      if (side) x += width + gap;
+      all.union(box.clone().translate(new Vector3(dx, 0, 0)));
+      if (p.label) all.expandByPoint(p.label.position.clone().add(p.root.position).setY(p.label.position.y + p.label.scale.y));
+    });
+    if (all.isEmpty()) all.set(new Vector3(-100, -100, -100), new Vector3(100, 100, 100)); // nothing to draw
+    this.world.updateMatrixWorld(true);
+    this.frameCamera(all);
+  }
+
+  /** Put the camera in front of `box` (slightly from above and the side) so that all of it is seen. */
+  frameCamera(box) {
+    const center = box.getCenter(new Vector3());
+    const dir = new Vector3(0.3, 0.35, 1).normalize();
+    const up = new Vector3(0, 1, 0);
+    const right = new Vector3().crossVectors(up, dir).normalize();
+    const camUp = new Vector3().crossVectors(dir, right).normalize();
+    const tanV = Math.tan((this.camera.fov * Math.PI) / 360);
+    const tanH = tanV * this.camera.aspect;
+    let distance = 0;
+    for (let c = 0; c < 8; c++) {
+      const corner = new Vector3(c & 1 ? box.max.x : box.min.x, c & 2 ? box.max.y : box.min.y, c & 4 ? box.max.z : box.min.z);
+      const r = corner.sub(center);
+      const depth = r.dot(dir); // towards the camera
+      distance = Math.max(distance, Math.abs(r.dot(right)) / tanH + depth, Math.abs(r.dot(camUp)) / tanV + depth);
+    }
+    distance = Math.max(distance * 1.08, 1e-3);
+    const size = box.getSize(new Vector3()).length();
+    this.camera.position.copy(center).addScaledVector(dir, distance);
+    this.camera.near = Math.max(distance / 200, 1e-4);
+    this.camera.far = distance * 4 + size * 4;
+    this.camera.updateProjectionMatrix();
+    this.controls.target.copy(center);
+    this.controls.update();
+    this.framedBox = box;
+  }
+
+  resize() {
+    const host = this.renderer.domElement.parentElement;
+    const w = Math.max(host.clientWidth, 1);
+    const h = Math.max(host.clientHeight, 1);
+    this.renderer.setSize(w, h, false);
+    this.camera.aspect = w / h;
+    this.camera.updateProjectionMatrix();
+    if (this.framedBox) this.frameCamera(this.framedBox);
+  }
+
+  drawFrame(f) {
+    const t = this.times.length ? this.times[f] : 0;
+    for (const p of this.panels) p.update(t);
+    this.render();
+  }
+
+  render() {
+    this.renderer.render(this.world, this.camera);
+  }
+
+  /** Render on the next animation frame; keep going while the timeline plays. */
+  requestRender() {
+    if (this.pending) return;
+    this.pending = true;
+    requestAnimationFrame((now) => {
+      this.pending = false;
+      if (!this.timeline.tick(now)) this.render();
+      if (this.timeline.playing) this.requestRender();
+    });
+  }
+
+  /** [x, y] CSS pixels (page viewport) of a panel's points at the current frame; null where missing. */
+  screenPositions(panelId) {
+    const panel = this.panels.find((p) => p.id === panelId);
+    if (!panel) throw new Error(`no panel ${panelId}`);
+    this.camera.updateMatrixWorld();
+    const rect = this.renderer.domElement.getBoundingClientRect();
+    return panel.points().map((v) => {
+      if (!v) return null;
+      const p = v.clone().project(this.camera);
+      return [rect.left + ((p.x + 1) / 2) * rect.width, rect.top + ((1 - p.y) / 2) * rect.height];
+    });
+  }
+}
+
+async function main() {
+  const response = await fetch("/scene.json");
+  if (!response.ok) throw new Error(`/scene.json: HTTP ${response.status}`);
+  const scene = await response.json();
+  if (scene.mocapkit_view !== 1) throw new Error(`/scene.json: schema ${scene.mocapkit_view}, this page reads 1`);
+  document.title = `mocapkit view: ${scene.title}`;
+  document.getElementById("title").textContent = scene.title;
+  listItems("files", describeFiles(scene));
+  listItems("notes", (scene.notes || []).map(String));
+  const view = new View(scene);
+  Object.assign(hooks, {
+    background: BACKGROUND,
+    frames: view.times.length,
+    setFrame: (i) => { view.timeline.pause(); view.timeline.setFrame(i); return view.timeline.frame; },
+    frame: () => view.timeline.frame,
+    jointScreenPositions: (panelId) => view.screenPositions(panelId),
+    panels: () => view.panels.map((p) => ({ id: p.id, kind: p.spec.kind })),
+  });
+  status("");
+  hooks.ready = true;
+}
+
+main().catch((err) => {
+  hooks.errors.push(String((err && err.stack) || err));
+  status(`The scene could not be shown: ${err && err.message ? err.message : err}`, true);
+});
