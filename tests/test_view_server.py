@@ -173,3 +173,29 @@ def test_the_command_refuses_bad_options_before_serving(tmp_path):
     assert r.returncode == 2 and "missing.bvh" in r.stderr and "no such file" in r.stderr
     r = run(str(BVH), "--frames", "5:2", "--no-browser")
     assert r.returncode == 2 and "--frames" in r.stderr
+
+
+def test_the_command_opens_the_browser_on_its_url(tmp_path):
+    """Without --no-browser the URL goes to the user's browser ($BROWSER, which webbrowser honours)."""
+    opened = tmp_path / "opened.txt"
+    fake = tmp_path / "fake-browser"
+    fake.write_text(f"#!{sys.executable}\nimport sys\nopen({str(opened)!r}, 'w').write(sys.argv[1])\n")
+    fake.chmod(0o755)
+    p = subprocess.Popen([sys.executable, "-m", "mocapkit", "view", str(BVH)], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, env={**os.environ, "BROWSER": f"{fake} %s"})
+    try:
+        url = p.stdout.readline().split()[-1]
+        import time
+
+        for _ in range(200):
+            if opened.exists() and opened.read_text():
+                break
+            time.sleep(0.05)
+        assert opened.read_text() == url
+        p.send_signal(signal.SIGINT)
+        p.communicate(timeout=20)
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.communicate()
+    assert p.returncode == 0
