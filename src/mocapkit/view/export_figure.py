@@ -1,0 +1,234 @@
+"""The whole ``--export`` picture: the scene's panels (:mod:`mocapkit.view.export_panels`) laid out on one
+Agg figure, drawn fast (the static background once, the moving artists per frame), and the single
+palette a GIF is written with."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mocapkit.errors import MocapFormatError
+from mocapkit.view.export_panels import (
+    BG,
+    MarkerView,
+    SensorView,
+    SkeletonView,
+    TimelineView,
+    _array,
+    _field,
+    _limits,
+    _times,
+    z_up,
+)
+
+DPI = 64
+"""Figure dots per inch: a power of two, so ``pixels / DPI * DPI`` is exact and the frame has the size asked."""
+
+
+_WEIGHTS = {"skeleton": 1.0, "markers": 1.0, "imu": 1.5}
+
+
+class SceneFigure:
+    """The whole scene on one Agg figure of ``width_px x height_px`` pixels; ``show(t)`` moves every
+    panel to timeline time ``t``. ``views`` lists the panel views in the scene's order."""
+
+    def __init__(self, scene: dict, width_px: int, height_px: int, window: tuple[float, float] | None = None):
+        from matplotlib.figure import Figure
+
+        if not isinstance(scene, dict) or scene.get("mocapkit_view") != 1:
+            raise MocapFormatError("scene", None, "not a mocapkit_view 1 scene")
+        self.timeline_times = _times(_field(scene, "timeline", "scene"), "timeline")
+        if window is None:
+            window = (float(self.timeline_times[0]), float(self.timeline_times[-1]))
+        if window[1] <= window[0]:
+            window = (window[0] - 0.5, window[0] + 0.5)
+        self.fig = Figure(figsize=(width_px / DPI, height_px / DPI), dpi=DPI, facecolor=BG)
+        _frame_canvas(self.fig, self.frame)
+        self._background = None
+        fs = max(5.0, height_px / 48) * 72 / DPI  # points for ~1/48 of the height
+        self.fs = fs
+        title = str(scene.get("title", ""))
+        self.fig.text(0.01, 0.985, title, fontsize=fs, va="top", ha="left", weight="bold")
+        notes = [str(n) for n in scene.get("notes") or []]
+        if notes:
+            self.fig.text(0.99, 0.985, " · ".join(notes), fontsize=fs * 0.7, va="top", ha="right", color="0.3")
+        panels = _field(scene, "panels", "scene")
+        if not isinstance(panels, list):
+            raise MocapFormatError("scene", None, "panels: expected a list")
+        kinds = []
+        for i, p in enumerate(panels):
+            kind = _field(p, "kind", f"panels[{i}]")
+            if kind not in _WEIGHTS:
+                raise MocapFormatError("scene", None, f"panels[{i}]: unknown kind {kind!r}")
+            kinds.append(kind)
+        sk_lim = self._skeleton_limits(panels)
+        y0, y1 = 0.20, 0.90
+        total = sum(_WEIGHTS[k] for k in kinds) or 1.0
+        x = 0.01
+        self.views = []
+        for i, (p, kind) in enumerate(zip(panels, kinds)):
+            w = 0.98 * _WEIGHTS[kind] / total
+            where = f"panel {p.get('id', i)}"
+            if kind == "skeleton":
+                self.views.append(SkeletonView(self.fig, [x, y0, w, y1 - y0], p, sk_lim, fs, where))
+            elif kind == "markers":
+                self.views.append(MarkerView(self.fig, [x, y0, w, y1 - y0], p, fs, where))
+            else:
+                self.views.extend(self._imu(p, x, w, y0, y1, window, fs, where))
+            x += w
+        self.timeline = TimelineView(self.fig, [0.05, 0.07, 0.9, 0.06], scene, self.timeline_times, window, fs)
+        self.views.append(self.timeline)
+        self.moving = [a for v in self.views for a in v.artists()]  # left out of the background
+        for k, a in enumerate(self.moving):  # above everything static, in this order (original, then decode)
+            a.set_zorder(10 + k)
+        for ax in self.fig.axes:
+            if hasattr(ax, "computed_zorder"):
+                ax.computed_zorder = False  # no depth sorting: the same order in a full redraw as in frame()
+
+    @staticmethod
+    def _skeleton_limits(panels: list) -> np.ndarray:
+        """Shared limits of every skeleton panel (the same scale side by side)."""
+        pts = []
+        for i, p in enumerate(panels):
+            if p.get("kind") == "skeleton":
+                where = f"panel {p.get('id', i)}"
+                pts.append(z_up(_array(p, "positions", where, (None, 3)), _field(p, "up", where)).reshape(-1, 3))
+        lim = _limits(np.concatenate(pts)) if pts else None
+        return lim if lim is not None else np.array([[-1.0, 1.0]] * 3)
+
+    def _imu(self, p, x, w, y0, y1, window, fs, where) -> list:
+        sensors = _field(p, "sensors", where)
+        up = _field(p, "up", where)
+        n = max(len(sensors), 1)
+        self.fig.text(x + 0.005, y1 + 0.01, f"{p.get('name', '')}: original (blue box, x y z in red green blue)"
+                      " vs decoded (orange, dashed)", fontsize=fs * 0.75, va="bottom")
+        h = (y1 - y0) / n
+        views = []
+        for k, s in enumerate(sensors):
+            top = y1 - k * h
+            r3 = [x, top - h, w * 0.34, h * 0.92]
+            r2 = [x + w * 0.42, top - h + h * 0.18, w * 0.55, h * 0.62]
+            views.append(SensorView(self.fig, r3, r2, s, up, window, fs, f"{where}.sensors[{k}]"))
+        return views
+
+    def show(self, t: float) -> None:
+        for v in self.views:
+            v.show(t)
+
+    def frame(self) -> memoryview:
+        """The figure now, as the canvas's RGBA buffer: the static background (drawn once: panes, grids,
+        ticks, titles, colour bars, trajectories, segments) restored, then only the moving artists drawn."""
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        canvas = self.fig.canvas
+        if self._background is None:
+            for a in self.moving:
+                a.set_visible(False)
+            try:
+                FigureCanvasAgg.draw(canvas)  # also sets each 3-D axes' projection, used below
+            finally:
+                for a in self.moving:
+                    a.set_visible(True)
+            self._background = canvas.copy_from_bbox(self.fig.bbox)
+        else:
+            canvas.restore_region(self._background)
+        renderer = canvas.get_renderer()
+        for a in self.moving:
+            if hasattr(a, "do_3d_projection"):
+                a.do_3d_projection()
+            a.draw(renderer)
+        return renderer.buffer_rgba()
+
+    def render(self) -> np.ndarray:
+        """The frame as written, ``(height, width, 4)`` uint8 RGBA (a copy)."""
+        return np.asarray(self.frame()).copy()
+
+    def render_full(self) -> np.ndarray:
+        """The same picture drawn the plain way (every artist, no background reuse): the reference
+        :meth:`frame` is checked against."""
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        FigureCanvasAgg.draw(self.fig.canvas)
+        return np.asarray(self.fig.canvas.buffer_rgba()).copy()
+
+
+# --- writing -------------------------------------------------------------------------------------
+
+def _frame_canvas(figure, frame):
+    """Attach to ``figure`` an Agg canvas whose raw output is ``frame()`` (see :func:`_canvas_class`)."""
+    return _canvas_class()(figure, frame)
+
+
+def _canvas_class():
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    class FrameCanvas(FigureCanvasAgg):
+        """An Agg canvas whose raw/RGBA output (what the movie writers' ``grab_frame`` asks ``savefig``
+        for) is :meth:`SceneFigure.frame`: the background reused, only the moving artists drawn."""
+
+        def __init__(self, figure, frame):
+            super().__init__(figure)
+            self._frame = frame
+
+        def print_raw(self, filename_or_obj, *, metadata=None, **_ignored):  # facecolor...: the figure's own
+            data = self._frame()
+            if hasattr(filename_or_obj, "write"):
+                filename_or_obj.write(data)
+            else:
+                with open(filename_or_obj, "wb") as fh:
+                    fh.write(data)
+
+        print_rgba = print_raw
+
+    return FrameCanvas
+
+
+def _codes(rgb: np.ndarray) -> np.ndarray:
+    rgb = rgb.reshape(-1, 3)
+    return (rgb[:, 0].astype(np.uint32) << 16) | (rgb[:, 1].astype(np.uint32) << 8) | rgb[:, 2]
+
+
+class GifPalette:
+    """One 256-colour palette for the whole GIF, from a few frames spread over ``times``: their ``exact``
+    most frequent colours as they are (background, panes, text, the artists' flat colours) and a median
+    cut of the other pixels (anti-aliased edges, the colour map). :meth:`quantize` maps a frame onto it:
+    the exact colours exactly (Pillow's palette mapping goes through a coarse colour cache and would turn
+    white into 252 grey), the others to Pillow's nearest entry."""
+
+    def __init__(self, view: SceneFigure, times: np.ndarray, samples: int = 5, exact: int = 96):
+        from PIL import Image
+
+        picks = np.unique(np.linspace(0, len(times) - 1, min(samples, len(times))).round().astype(int))
+        rows = []
+        for k in picks:
+            view.show(float(times[k]))
+            rows.append(view.render()[..., :3].reshape(-1, 3))
+        px = np.concatenate(rows)
+        colours, inverse, counts = np.unique(_codes(px), return_inverse=True, return_counts=True)
+        top = np.argsort(-counts, kind="stable")[:exact]
+        palette = [((c >> 16) & 255, (c >> 8) & 255, c & 255) for c in colours[top].tolist()]
+        rest = px[~np.isin(inverse, top)]
+        if len(rest):
+            cut = Image.fromarray(rest[None, :, :].copy()).convert("P", palette=Image.Palette.ADAPTIVE,
+                                                                   colors=256 - len(palette))
+            values = cut.getpalette()
+            palette += [tuple(values[3 * i:3 * i + 3]) for i in np.unique(np.asarray(cut)).tolist()]
+        flat = [v for c in palette[:256] for v in c]
+        self.image = Image.new("P", (1, 1))
+        self.image.putpalette(flat + flat[:3] * (256 - len(flat) // 3))
+        order = np.argsort(colours[top])
+        self.exact_codes = colours[top][order]
+        self.exact_index = np.arange(len(top), dtype=np.uint8)[order]
+
+    def quantize(self, frame):
+        """The RGB ``frame`` (a PIL image) as a ``P`` image on this palette."""
+        from PIL import Image
+
+        q = frame.quantize(palette=self.image, dither=Image.Dither.NONE)
+        idx = np.array(q)
+        code = _codes(np.asarray(frame)).reshape(idx.shape)
+        pos = np.minimum(np.searchsorted(self.exact_codes, code), len(self.exact_codes) - 1)
+        hit = self.exact_codes[pos] == code
+        idx[hit] = self.exact_index[pos[hit]]
+        out = Image.fromarray(idx, mode="P")
+        out.putpalette(self.image.getpalette())
+        return out

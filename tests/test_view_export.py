@@ -1,0 +1,554 @@
+"""``mocapkit view --export``: the scene drawn into GIF/MP4 files (``mocapkit.view.export``).
+
+Scenes are built by hand following docs/viewer.md (and, at the end, by ``build_scene`` from the sample
+files). The pictures are checked against things computed here: the joints projected with the 3-D axes'
+own projection matrix, the GIF's frame count and delays read back by Pillow, the MP4 probed by ffprobe.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import itertools
+import json
+import math
+import os
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from mocapkit.errors import InvalidParameterError, MocapError, MocapFormatError
+from mocapkit.view.arrays import encode_array
+from mocapkit.view.export import export_scene
+from mocapkit.view.export_figure import SceneFigure
+
+DATA = Path(__file__).resolve().parent / "data"
+W, H = 320, 200
+
+
+# --- hand-built scenes (docs/viewer.md) ---------------------------------------------------------------
+
+PARENTS = [-1, 0, 1, 1, 1, 0]  # hips, spine, head, left hand, right hand, foot
+
+
+def skeleton_positions(times: np.ndarray) -> np.ndarray:
+    """A z-up stick figure walking along x with its left hand waving: (n, 6, 3) cm, joints far apart."""
+    n = len(times)
+    p = np.zeros((n, 6, 3))
+    x0 = 40.0 * times
+    wave = 25.0 * np.sin(2 * np.pi * times)
+    p[:, 0] = np.stack([x0, 0 * x0, 0 * x0 + 100], axis=1)
+    p[:, 1] = p[:, 0] + [0, 0, 35]
+    p[:, 2] = p[:, 0] + [0, 0, 70]
+    p[:, 3] = p[:, 1] + np.stack([0 * x0 - 45, 0 * x0, wave], axis=1)
+    p[:, 4] = p[:, 1] + [45, 0, -20]
+    p[:, 5] = p[:, 0] + [10, 0, -90]
+    return p
+
+
+def decode_offsets(times: np.ndarray) -> np.ndarray:
+    """(n, 6) how far each decoded joint is off (cm): joint j by 0.1 j, growing from half to all of it."""
+    return 0.1 * np.arange(6)[None, :] * (0.5 + 0.5 * times[:, None] / max(times[-1], 1e-9))
+
+
+def skeleton_scene(n: int = 41, rate: float = 20.0, up: str = "z", positions=None, segments: bool = True) -> dict:
+    times = np.arange(n) / rate
+    pos = skeleton_positions(times) if positions is None else positions
+    offset = np.zeros_like(pos)
+    offset[:, :, 1] = decode_offsets(times)  # errors growing over time
+    if up == "y":
+        offset = np.stack([offset[..., 0], offset[..., 2], -offset[..., 1]], axis=-1)
+    dec = pos + offset
+    err = np.linalg.norm(dec - pos, axis=-1)
+
+    def panel(pid, role, p, error):
+        return {"id": pid, "kind": "skeleton", "file": f"{pid}.bvh", "name": f"{pid}.bvh", "up": up,
+                "times": encode_array(times, "float64"),
+                "joints": ["hips", "spine", "head", "lhand", "rhand", "foot"], "parents": PARENTS, "unit": "cm",
+                "positions": encode_array(p), "role": role, "decoded_from": None if role == "original" else "p0",
+                "error": None if error is None else encode_array(error),
+                "max_error": None if error is None else float(error.max()),
+                "bound": None if error is None else 0.5}
+
+    seg = None
+    if segments:
+        cut = n // 2
+        seg = {"file": "p0.bvh", "method": "arma", "cuts": [{"frame": cut, "time_s": float(times[cut])}],
+               "segments": [{"t0": 0.0, "t1": float(times[cut - 1]), "frame0": 0, "frame1": cut, "label": "walk",
+                             "action": "A"},
+                            {"t0": float(times[cut]), "t1": float(times[-1]), "frame0": cut, "frame1": n,
+                             "label": None, "action": "B"}]}
+    return {"mocapkit_view": 1, "title": "p0.bvh · p1.mkc",
+            "timeline": {"times": encode_array(times, "float64"), "frames": n, "rate_hz": rate, "source": "p0"},
+            "segments": seg, "notes": [], "panels": [panel("p0", "original", pos, None),
+                                                     panel("p1", "decoded", dec, err)]}
+
+
+def quat_z(angle: np.ndarray) -> np.ndarray:
+    return np.stack([np.cos(angle / 2), 0 * angle, 0 * angle, np.sin(angle / 2)], axis=1)
+
+
+def mixed_scene(n: int = 41, rate: float = 20.0) -> dict:
+    """An IMU panel (one sensor turning about z, its decode a little behind) and a marker panel."""
+    times = np.arange(n) / rate
+    ang = np.pi * times
+    orig, dec = quat_z(ang), quat_z(ang - np.radians(1.5) * np.sin(5 * times))
+    err = np.degrees(np.abs(np.radians(1.5) * np.sin(5 * times)))
+    sensor = {"name": "wrist", "times": encode_array(times, "float64"), "original": encode_array(orig),
+              "decoded": encode_array(dec), "error_deg": encode_array(err),
+              "keyframes": encode_array(times[::8], "float64"), "bound_deg": 2.0, "max_error_deg": float(err.max())}
+    m_pos = np.zeros((n, 3, 3))
+    m_pos[:, 0] = np.stack([100 * times, 0 * times, 500 + 300 * times - 490 * times ** 2], axis=1)
+    m_pos[:, 1] = [0, 200, 0]
+    m_pos[:, 2] = [300, 200, 0]
+    m_pos[5:9, 2] = np.nan  # a gap
+    fitted = np.full_like(m_pos, np.nan)
+    fitted[:, 0] = m_pos[:, 0]
+    markers = {"id": "p1", "kind": "markers", "file": "m.tsv", "name": "m.tsv", "up": "z",
+               "times": encode_array(times, "float64"), "labels": ["ball", "b1", "b2"], "unit": "mm",
+               "positions": encode_array(m_pos), "fitted": encode_array(fitted),
+               "knots": [{"marker": 0, "times": [float(times[n // 2])], "positions": [m_pos[n // 2, 0].tolist()]}]}
+    imu = {"id": "p0", "kind": "imu", "file": "w.csv", "name": "w.csv + w.mkp", "up": "z",
+           "times": encode_array(times, "float64"), "sensors": [sensor]}
+    return {"mocapkit_view": 1, "title": "mixed",
+            "timeline": {"times": encode_array(times, "float64"), "frames": n, "rate_hz": rate, "source": "p0"},
+            "segments": None, "notes": ["a note"], "panels": [imu, markers]}
+
+
+# --- helpers ----------------------------------------------------------------------------------------
+
+def gif_frames(path: Path) -> tuple[list[np.ndarray], list[int], tuple[int, int]]:
+    frames, delays = [], []
+    with Image.open(path) as im:
+        size = im.size
+        for k in range(im.n_frames):
+            im.seek(k)
+            frames.append(np.asarray(im.convert("RGB")).astype(int))
+            delays.append(im.info.get("duration"))
+    return frames, delays, size
+
+
+def projected(ax, pts: np.ndarray) -> np.ndarray:
+    """Pixel (column, row) of 3-D points through the axes' projection matrix ``ax.M`` and ``transData``,
+    computed here (homogeneous coordinates), rows counted from the top."""
+    h = np.c_[pts, np.ones(len(pts))] @ np.asarray(ax.M).T
+    xy = ax.transData.transform(h[:, :2] / h[:, 3:4])
+    return np.c_[xy[:, 0], ax.figure.bbox.height - xy[:, 1]]
+
+
+def rows_cols(ax) -> tuple[slice, slice]:
+    x0, y0, x1, y1 = ax.bbox.extents
+    Hf = ax.figure.bbox.height
+    return slice(int(Hf - y1), int(Hf - y0)), slice(int(x0), int(x1))
+
+
+def running_children(name: str) -> list[int]:
+    """This process's children called ``name`` that are still running (not zombies), from /proc."""
+    found = []
+    for d in Path("/proc").glob("[0-9]*"):
+        with contextlib.suppress(OSError, IndexError, ValueError):
+            stat = (d / "stat").read_text()
+            comm, rest = stat[stat.index("(") + 1:stat.rindex(")")], stat[stat.rindex(")") + 2:].split()
+            if comm == name and int(rest[1]) == os.getpid() and rest[0] not in ("Z", "X"):
+                found.append(int(d.name))
+    return found
+
+
+class Recorder:
+    """A ``progress(what, total)`` factory recording its calls (optionally raising at one update)."""
+
+    def __init__(self, raise_at: int | None = None, exc=KeyboardInterrupt):
+        self.opened, self.updates, self.raise_at, self.exc = [], [], raise_at, exc
+
+    def __call__(self, what, total):
+        self.opened.append((what, total))
+
+        @contextlib.contextmanager
+        def cm():
+            def update(done, n=None):
+                self.updates.append(done)
+                if self.raise_at is not None and done == self.raise_at:
+                    raise self.exc()
+            yield update
+        return cm()
+
+
+# --- frame counts, sizes, delays ------------------------------------------------------------------------
+
+def test_gif_frame_count_delay_and_size(tmp_path):
+    scene = skeleton_scene(n=41, rate=20.0)  # 2 s
+    out = tmp_path / "a.gif"
+    rec = Recorder()
+    r = export_scene(scene, out, fps=10, width_px=W, height_px=H, progress=rec)
+    frames, delays, size = gif_frames(out)
+    assert size == (W, H)
+    assert len(frames) == 21 == r["frames_written"]  # 0, 0.1, ..., 2.0 s
+    assert delays == [100] * 21
+    assert r == {"path": str(out), "frames_written": 21, "fps": 10.0, "bytes": out.stat().st_size, "format": "gif"}
+    assert rec.opened == [("exporting a.gif", 21)] and rec.updates == list(range(1, 22))
+    # 30 fps: a GIF's delays are hundredths, so 3 cs = 33.3 fps; 2 s -> floor(2 / 0.03) + 1 frames
+    r = export_scene(scene, out, fps=30, width_px=W, height_px=H)
+    frames, delays, _ = gif_frames(out)
+    assert r["fps"] == pytest.approx(100 / 3) and len(frames) == r["frames_written"] == math.floor(2 / 0.03) + 1
+    assert set(delays) == {30}
+    assert sorted(os.listdir(tmp_path)) == ["a.gif"]
+
+
+def test_frame_range_limits_the_export(tmp_path):
+    scene = skeleton_scene(n=41, rate=20.0)
+    r = export_scene(scene, tmp_path / "r.gif", fps=20, width_px=W, height_px=H, frames=(10, 20))  # 10..19
+    frames, _, _ = gif_frames(tmp_path / "r.gif")
+    assert len(frames) == r["frames_written"] == 10
+    r = export_scene(scene, tmp_path / "one.gif", fps=20, width_px=W, height_px=H, frames=(7, 8))
+    assert r["frames_written"] == 1 and len(gif_frames(tmp_path / "one.gif")[0]) == 1
+
+
+def test_consecutive_frames_of_a_moving_skeleton_differ(tmp_path):
+    scene = skeleton_scene(n=41, rate=20.0)
+    export_scene(scene, tmp_path / "m.gif", fps=10, width_px=W, height_px=H)
+    frames, _, _ = gif_frames(tmp_path / "m.gif")
+    view = SceneFigure(scene, W, H)
+    view.render()  # places the axes
+    for v in view.views[:2]:
+        rr, cc = rows_cols(v.ax)
+        for a, b in itertools.pairwise(frames):
+            assert np.abs(a[rr, cc] - b[rr, cc]).sum(axis=2).max() > 100, "the skeleton did not move"
+    # a still skeleton: its panels do not change from frame to frame (only the clock and playhead do)
+    still = skeleton_scene(n=41, rate=20.0, positions=np.repeat(skeleton_positions(np.zeros(1)), 41, axis=0))
+    export_scene(still, tmp_path / "s.gif", fps=10, width_px=W, height_px=H)
+    frames, _, _ = gif_frames(tmp_path / "s.gif")
+    rr, cc = rows_cols(view.views[0].ax)
+    assert all(np.array_equal(a[rr, cc], frames[0][rr, cc]) for a in frames[1:])
+
+
+# --- the picture --------------------------------------------------------------------------------------
+
+def _bone_distance(px: np.ndarray, segs: np.ndarray) -> np.ndarray:
+    """Distance of every pixel centre ``px`` (P, 2) to the nearest 2-D segment of ``segs`` (S, 2, 2)."""
+    a, b = segs[:, 0][None], segs[:, 1][None]
+    d = b - a
+    u = np.clip(((px[:, None] - a) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-12), 0, 1)
+    return np.linalg.norm(px[:, None] - (a + u[..., None] * d), axis=-1).min(axis=1)
+
+
+def test_skeleton_drawn_where_the_joints_project(tmp_path):
+    from matplotlib import colormaps
+
+    scene = skeleton_scene(n=41, rate=20.0)
+    export_scene(scene, tmp_path / "f.gif", fps=10, width_px=W, height_px=H, frames=(26, 27))
+    gif = gif_frames(tmp_path / "f.gif")[0][0]
+    view = SceneFigure(scene, W, H)
+    view.show(1.3)
+    img = view.render()[..., :3].astype(int)
+    assert np.abs(gif - img).mean() < 3, "the GIF holds another picture"
+    for v in view.views[:2]:
+        v.lines.set_visible(False), v.joints.set_visible(False)
+    empty = view.render_full()[..., :3].astype(int)
+    for v in view.views[:2]:
+        v.lines.set_visible(True), v.joints.set_visible(True)
+    pos = skeleton_positions(np.arange(41) / 20.0)[26]
+    err = decode_offsets(np.arange(41) / 20.0)[26]
+    for i, v in enumerate(view.views[:2]):
+        p = pos + (np.c_[0 * err, err, 0 * err] if i else 0)
+        px = projected(v.ax, p)
+        cols, rows = px[:, 0].astype(int), px[:, 1].astype(int)
+        # every joint is drawn, in the GIF too
+        assert (np.abs(img[rows, cols] - empty[rows, cols]).sum(axis=1) > 60).all()
+        assert (np.abs(gif[rows, cols] - empty[rows, cols]).sum(axis=1) > 60).all()
+        # joints coloured: the original's in one colour, the decode's by its error over the 0.5 cm bound
+        want = (np.array([[0x1f, 0x5f, 0xa8]] * 6) if i == 0 else
+                np.round(colormaps["RdYlGn_r"](err / 0.5)[:, :3] * 255))
+        assert np.abs(img[rows, cols] - want).max() <= 3
+        # nothing else moved: far from every joint and bone, the panel equals the empty one
+        rr, cc = rows_cols(v.ax)
+        yy, xx = np.mgrid[rr, cc]
+        pix = np.c_[xx.ravel() + 0.5, yy.ravel() + 0.5]
+        segs = np.stack([px[[j for j, q in enumerate(PARENTS) if q >= 0]],
+                         px[[q for q in PARENTS if q >= 0]]], axis=1)
+        far = np.minimum(_bone_distance(pix, segs), np.linalg.norm(pix[:, None] - px[None], axis=-1).min(1)) > 6
+        diff = np.abs(img[yy.ravel(), xx.ravel()] - empty[yy.ravel(), xx.ravel()]).sum(axis=1)
+        assert far.sum() > 1000 and (diff[far] == 0).all()
+        assert (diff[~far] > 0).sum() > 20
+
+
+def test_y_up_scene_is_drawn_upright(tmp_path):
+    """A y-up file shows the same picture as the same motion turned by hand to z-up (x, -z, y): a rotation,
+    so the head stays above the feet and nothing is mirrored."""
+    times = np.arange(41) / 20.0
+    zup = skeleton_positions(times)
+    yup = np.stack([zup[..., 0], zup[..., 2], -zup[..., 1]], axis=-1)  # the inverse turn
+    a = SceneFigure(skeleton_scene(up="y", positions=yup), W, H)
+    b = SceneFigure(skeleton_scene(up="z", positions=zup), W, H)
+    for t in (0.0, 0.7, 1.9):
+        a.show(t), b.show(t)
+        assert np.array_equal(a.render(), b.render())
+    px = projected(b.views[0].ax, zup[10])
+    assert px[2, 1] < px[1, 1] < px[0, 1] < px[5, 1]  # head above spine above hips above foot (rows from top)
+
+
+def test_background_reuse_draws_what_a_full_redraw_draws():
+    for scene in (skeleton_scene(), mixed_scene()):
+        view = SceneFigure(scene, W, H)
+        for t in (0.0, 0.55, 1.35, 2.0):
+            view.show(t)
+            fast = view.render()
+            full = view.render_full()
+            assert np.array_equal(fast, full)
+
+
+def test_playhead_and_clock_follow_the_output_time():
+    scene = skeleton_scene(n=41, rate=20.0)
+    view = SceneFigure(scene, W, H)
+    ax = view.timeline.ax
+    rr, cc = rows_cols(ax)
+    for t in (0.25, 1.0, 1.75):
+        view.show(t)
+        img = view.render()[..., :3].astype(int)
+        red = (np.abs(img[rr, cc] - [0xd0, 0, 0]).sum(axis=2) < 40).sum(axis=0)
+        x_px = ax.transData.transform((t, 0))[0]
+        cols = np.nonzero(red > 0.5 * red.max())[0] + cc.start
+        assert red.max() > 5 and abs(cols.mean() + 0.5 - x_px) < 1.5
+        assert view.timeline.clock.get_text().split() == ["t", "=", f"{t:.3f}", "s", "frame", str(round(t * 20)),
+                                                         "/", "41"]
+
+
+def test_a_panel_holds_its_last_sample_at_or_before_the_time():
+    """A decoded panel sampled at 5 Hz from 0.5 s on a 20 Hz timeline: before 0.5 s it shows its first
+    sample, between samples the earlier one (docs/viewer.md)."""
+    scene = skeleton_scene(n=41, rate=20.0)
+    tp = 0.5 + 0.2 * np.arange(8)
+    pos = skeleton_positions(tp)
+    panel = scene["panels"][1]
+    panel["times"] = encode_array(tp, "float64")
+    panel["positions"] = encode_array(pos)
+    panel["error"] = encode_array(np.full((8, 6), 0.2))
+    view = SceneFigure(scene, W, H)
+    rr, cc = rows_cols(view.views[1].ax)
+
+    def at(t):
+        view.show(t)
+        return view.render()[rr, cc]
+
+    first = at(0.5)
+    assert np.array_equal(at(0.0), first) and np.array_equal(at(0.45), first) and np.array_equal(at(0.69), first)
+    assert not np.array_equal(at(0.7), first)
+    assert np.array_equal(at(0.7), at(0.89)) and np.array_equal(at(2.0), at(tp[-1] + 1e-9))
+
+
+def test_imu_and_marker_panels_move(tmp_path):
+    scene = mixed_scene()
+    r = export_scene(scene, tmp_path / "x.gif", fps=10, width_px=W, height_px=H)
+    frames, _, _ = gif_frames(tmp_path / "x.gif")
+    assert len(frames) == r["frames_written"] == 21
+    view = SceneFigure(scene, W, H)
+    view.render()
+    sensor, markers = view.views[0], view.views[1]
+    for ax in (sensor.ax3d, sensor.ax2d, markers.ax):  # the box turns, the playhead and the ball move
+        rr, cc = rows_cols(ax)
+        assert all(np.abs(a[rr, cc] - b[rr, cc]).sum() > 0 for a, b in itertools.pairwise(frames))
+    # the decoded box and the marker are drawn where they project (moving artists hidden -> empty)
+    view.show(1.0)
+    img = view.render()[..., :3].astype(int)
+    for art in sensor.boxes.values():
+        art.set_visible(False)
+    markers.markers.set_visible(False)
+    empty = view.render_full()[..., :3].astype(int)
+    ball = np.array([[100 * 1.0, 0, 500 + 300 - 490.0]])
+    col, row = projected(markers.ax, ball)[0].astype(int)
+    assert np.abs(img[row, col] - empty[row, col]).sum() > 60
+    rr, cc = rows_cols(sensor.ax3d)
+    assert (np.abs(img[rr, cc] - empty[rr, cc]).sum(axis=2) > 60).sum() > 30
+
+
+# --- MP4 -------------------------------------------------------------------------------------------
+
+needs_ffmpeg = pytest.mark.skipif(shutil.which("ffmpeg") is None or shutil.which("ffprobe") is None,
+                                  reason="ffmpeg/ffprobe not installed (Debian: apt install ffmpeg)")
+
+
+@needs_ffmpeg
+def test_mp4_is_a_real_video(tmp_path):
+    out = tmp_path / "v.mp4"
+    r = export_scene(skeleton_scene(n=41, rate=20.0), out, fps=10, width_px=W, height_px=H)
+    probe = subprocess.run(["ffprobe", "-v", "error", "-count_frames", "-select_streams", "v:0", "-show_entries",
+                            "stream=codec_name,width,height,nb_read_frames,pix_fmt,r_frame_rate", "-of", "json",
+                            str(out)], capture_output=True, text=True, check=True)
+    st = json.loads(probe.stdout)["streams"][0]
+    assert st["codec_name"] == "h264" and st["pix_fmt"] == "yuv420p"
+    assert (st["width"], st["height"]) == (W, H)
+    assert int(st["nb_read_frames"]) == r["frames_written"] == 21
+    assert st["r_frame_rate"] == "10/1"
+    assert r["format"] == "mp4" and r["bytes"] == out.stat().st_size > 1000
+    assert os.listdir(tmp_path) == ["v.mp4"]
+
+
+# --- refusals and failures --------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name, kwargs, words", [
+    ("a.avi", {}, ["'.avi'", ".gif or .mp4"]),
+    ("a", {}, ["no suffix"]),
+    ("missing/a.gif", {}, ["does not exist"]),
+    ("a.gif", {"frames": (5, 3)}, ["empty"]),
+    ("a.gif", {"frames": (5, 5)}, ["empty"]),
+    ("a.gif", {"frames": (0, 42)}, ["outside", "0..40"]),
+    ("a.gif", {"frames": (-1, 4)}, ["outside"]),
+    ("a.gif", {"fps": 60}, ["at most 50"]),
+    ("a.gif", {"fps": 0}, ["--fps"]),
+    ("a.mp4", {"width_px": 321}, ["odd"]),
+    ("a.gif", {"height_px": 10}, ["height"]),
+])
+def test_bad_requests_are_refused_before_any_work(tmp_path, name, kwargs, words):
+    rec = Recorder()
+    with pytest.raises(InvalidParameterError) as e:
+        export_scene(skeleton_scene(), tmp_path / name, progress=rec, **kwargs)
+    assert all(w in str(e.value) for w in words), str(e.value)
+    assert rec.opened == [] and os.listdir(tmp_path) == []
+
+
+def test_output_that_is_an_input_is_refused(tmp_path):
+    src = tmp_path / "walk.gif"
+    src.write_bytes(b"an input")
+    with pytest.raises(InvalidParameterError, match="input file"):
+        export_scene(skeleton_scene(), src, inputs=[src])
+    assert src.read_bytes() == b"an input"
+
+
+def test_no_window_and_no_pyplot(tmp_path):
+    """Even with a GUI backend asked for (MPLBACKEND=TkAgg) and no display, the export draws on Agg
+    only: neither pyplot nor a GUI toolkit is imported."""
+    import sys
+
+    code = ("import sys; from pathlib import Path; sys.path.insert(0, sys.argv[2]); "
+            "from test_view_export import skeleton_scene; from mocapkit.view.export import export_scene; "
+            "export_scene(skeleton_scene(), Path(sys.argv[1]), fps=5, width_px=160, height_px=100); "
+            "print([m for m in sys.modules if m.split('.')[0] in ('tkinter', 'PyQt5', 'PyQt6', 'PySide6', 'gi', "
+            "'wx') or m in ('matplotlib.pyplot', 'matplotlib.backends.backend_tkagg')])")
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env["MPLBACKEND"] = "TkAgg"
+    r = subprocess.run([sys.executable, "-c", code, str(tmp_path / "w.gif"), str(Path(__file__).parent)],
+                       check=False, capture_output=True, text=True, env=env, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "[]" and (tmp_path / "w.gif").stat().st_size > 0
+
+
+def test_output_that_is_a_folder_is_refused(tmp_path):
+    (tmp_path / "d.gif").mkdir()
+    with pytest.raises(MocapError, match="folder"):
+        export_scene(skeleton_scene(), tmp_path / "d.gif")
+
+
+def test_missing_ffmpeg_is_named_before_any_work(tmp_path, monkeypatch):
+    import matplotlib as mpl
+
+    monkeypatch.setitem(mpl.rcParams, "animation.ffmpeg_path", str(tmp_path / "no-such-ffmpeg"))
+    rec = Recorder()
+    with pytest.raises(MocapError) as e:
+        export_scene(skeleton_scene(), tmp_path / "v.mp4", width_px=W, height_px=H, progress=rec)
+    assert "ffmpeg" in str(e.value) and "apt install ffmpeg" in str(e.value) and ".gif" in str(e.value)
+    assert rec.opened == [] and os.listdir(tmp_path) == []
+
+
+def test_malformed_scene_is_a_format_error(tmp_path):
+    scene = skeleton_scene()
+    del scene["panels"][1]["positions"]
+    with pytest.raises(MocapFormatError, match="positions"):
+        export_scene(scene, tmp_path / "a.gif", width_px=W, height_px=H)
+    scene = skeleton_scene()
+    scene["panels"][0]["positions"]["shape"] = [41, 5, 3]
+    with pytest.raises(MocapFormatError, match="bytes"):
+        export_scene(scene, tmp_path / "a.gif", width_px=W, height_px=H)
+    assert os.listdir(tmp_path) == []
+
+
+@pytest.mark.parametrize("suffix", [".gif", pytest.param(".mp4", marks=needs_ffmpeg)])
+@pytest.mark.parametrize("exc", [KeyboardInterrupt, RuntimeError])
+def test_a_failure_leaves_no_temporary_and_the_old_file(tmp_path, suffix, exc):
+    out = tmp_path / f"v{suffix}"
+    with pytest.raises(exc):
+        export_scene(skeleton_scene(), out, fps=10, width_px=W, height_px=H, progress=Recorder(raise_at=3, exc=exc))
+    assert os.listdir(tmp_path) == []
+    assert running_children("ffmpeg") == [], "ffmpeg left running"
+    out.write_bytes(b"old")
+    with pytest.raises(exc):
+        export_scene(skeleton_scene(), out, fps=10, width_px=W, height_px=H, progress=Recorder(raise_at=3, exc=exc))
+    assert os.listdir(tmp_path) == [out.name] and out.read_bytes() == b"old"
+    export_scene(skeleton_scene(), out, fps=10, width_px=W, height_px=H)  # and a clean run replaces it
+    assert os.listdir(tmp_path) == [out.name] and out.read_bytes()[:3] != b"old"
+
+
+def test_ffmpeg_failing_is_a_mocap_error(tmp_path, monkeypatch):
+    import matplotlib as mpl
+
+    fake = tmp_path / "bin" / "ffmpeg"
+    fake.parent.mkdir()
+    fake.write_text("#!/bin/sh\ncat > /dev/null\necho 'Unknown encoder h264' >&2\nexit 1\n")
+    fake.chmod(0o755)
+    monkeypatch.setitem(mpl.rcParams, "animation.ffmpeg_path", str(fake))
+    out = tmp_path / "out" / "v.mp4"
+    out.parent.mkdir()
+    with pytest.raises(MocapError, match="ffmpeg failed: Unknown encoder h264"):
+        export_scene(skeleton_scene(), out, fps=10, width_px=W, height_px=H)
+    assert os.listdir(out.parent) == []
+
+
+# --- real scenes from the sample files --------------------------------------------------------------------
+
+def _run_cli(*args) -> str:
+    """``mocapkit ARGS`` in-process; its stdout (a failure fails the test with its stderr)."""
+    from mocapkit import cli
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            cli.main([str(a) for a in args])
+        except SystemExit as e:
+            assert not e.code, err.getvalue()
+    return out.getvalue()
+
+
+def _bvh_frames(path: Path) -> tuple[int, float]:
+    text = path.read_text()
+    n = int(text.split("Frames:")[1].split()[0])
+    dt = float(text.split("Frame Time:")[1].split()[0])
+    return n, dt
+
+
+def test_real_walk_and_its_clip(tmp_path):
+    from mocapkit.view.scene import build_scene
+
+    bvh = DATA / "bvh" / "walk-meredith-60.bvh"
+    scene = build_scene([bvh, DATA / "clip" / "walk-meredith-60.mkc"])
+    n, dt = _bvh_frames(bvh)
+    r = export_scene(scene, tmp_path / "w.gif", fps=25, width_px=W, height_px=H)
+    frames, delays, size = gif_frames(tmp_path / "w.gif")
+    assert size == (W, H) and set(delays) == {40}
+    assert len(frames) == r["frames_written"] == math.floor((n - 1) * dt * 25 + 1e-6) + 1
+    view = SceneFigure(scene, W, H)
+    view.render()
+    rr, cc = rows_cols(view.views[1].ax)
+    assert all(np.abs(a[rr, cc] - b[rr, cc]).sum() > 0 for a, b in itertools.pairwise(frames))
+
+
+def test_real_imu_with_its_packets_and_markers_with_their_fit(tmp_path):
+    from mocapkit.view.scene import build_scene
+
+    mkp = tmp_path / "xio.mkp"
+    _run_cli("compress", DATA / "xio", "--max-angle", "2", "-o", mkp)
+    tsv = DATA / "markers" / "juggling-qualisys-300hz-first120.tsv"
+    fit = tmp_path / "fit.json"
+    fit.write_text(_run_cli("filter", tsv, "--markers", "unnamed_6,unnamed_7", "--auto", "--json"))
+    scene = build_scene([DATA / "xio", mkp])
+    r = export_scene(scene, tmp_path / "imu.gif", fps=10, width_px=W, height_px=H, frames=(0, 61))
+    first = scene["panels"][0]["sensors"][0]["name"]  # the timeline's sensor; its file's times in microseconds
+    times = np.genfromtxt(DATA / "xio" / first / "Quaternion.csv", delimiter=",", skip_header=1)[:, 0] / 1e6
+    assert r["frames_written"] == math.floor((times[60] - times[0]) * 10 + 1e-6) + 1
+    assert len(gif_frames(tmp_path / "imu.gif")[0]) == r["frames_written"]
+    scene = build_scene([tsv], filter_json=fit)
+    r = export_scene(scene, tmp_path / "m.gif", fps=50, width_px=W, height_px=H)
+    assert r["frames_written"] == math.floor(119 / 300 * 50 + 1e-6) + 1
+    assert len(gif_frames(tmp_path / "m.gif")[0]) == r["frames_written"]
+    assert sorted(os.listdir(tmp_path)) == ["fit.json", "imu.gif", "m.gif", "xio.mkp"]
