@@ -38,6 +38,8 @@ BVH = DATA / "bvh" / "walk-meredith-60.bvh"
 CLIP = DATA / "clip" / "walk-meredith-60.mkc"
 IMU = DATA / "xio" / "pelvis"
 MARKERS = DATA / "markers" / "juggling-qualisys-300hz-first120.tsv"
+AMC = DATA / "cmu" / "86_01_15hz_first1600.amc"  # the subject walks about 1.9 body heights
+ASF = DATA / "cmu" / "86.asf"
 #: WebGL on the CPU (SwiftShader through ANGLE): no GPU is needed, and unlike --disable-gpu the canvas is not
 #: read back with a driver performance warning on the console
 LAUNCH_ARGS = ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
@@ -118,6 +120,57 @@ def marker_server(request, tmp_path_factory):
     fit = tmp_path_factory.mktemp("view-markers") / "fit.json"
     fit.write_text(_run_cli("filter", str(MARKERS), "--markers", "unnamed_6,unnamed_7,unnamed_8", "--auto", "--json"))
     return _serve(request, str(MARKERS), "--filter", str(fit))
+
+
+@pytest.fixture(scope="module")
+def walking_server(request, tmp_path_factory):
+    """The travelling AMC excerpt and its compressed clip."""
+    clip = tmp_path_factory.mktemp("view-walk") / "86.mkc"
+    _run_cli("compress", str(AMC), "--asf", str(ASF), "--rate", "15", "--max-position-error", "1", "-o", str(clip))
+    return _serve(request, str(AMC), str(clip), "--asf", str(ASF), "--rate", "15")
+
+
+def _write_qtm_tsv(path: Path, rate: float, names: list[str], positions: np.ndarray) -> None:
+    """A QTM 3-D TSV of `positions` (n, M, 3) in mm."""
+    n = positions.shape[0]
+    lines = [f"NO_OF_FRAMES\t{n}", f"NO_OF_MARKERS\t{len(names)}", f"FREQUENCY\t{rate:g}", "DATA_INCLUDED\t3D",
+             "MARKER_NAMES\t" + "\t".join(names), "Frame\tTime\t" + "\t".join(f"{m} {a}" for m in names for a in "XYZ")]
+    for k in range(n):
+        lines.append(f"{k + 1}\t{k / rate:.5f}\t" + "\t".join(f"{v:.3f}" for v in positions[k].ravel()))
+    path.write_text("\n".join(lines) + "\n")
+
+
+@pytest.fixture(scope="module")
+def long_marker_server(request, tmp_path_factory):
+    """8 s at 100 Hz: a ball circling and bouncing every 0.8 s, a hand, a fixed base; ball and hand fitted."""
+    folder = tmp_path_factory.mktemp("view-long-markers")
+    t = np.arange(800) / 100.0
+    ball = np.stack([400 * np.cos(2 * np.pi * t / 2.5), 300 * np.sin(2 * np.pi * t / 2.5),
+                     1000 + 500 * np.abs(np.sin(np.pi * t / 0.8))], 1)
+    hand = np.stack([300 * np.cos(2 * np.pi * t / 4) + 100, -200 + 50 * np.sin(2 * np.pi * t),
+                     900 + 30 * np.sin(4 * np.pi * t)], 1)
+    base = np.tile([-300.0, 250.0, 50.0], (len(t), 1))
+    tsv = folder / "long.tsv"
+    _write_qtm_tsv(tsv, 100.0, ["ball", "hand", "base"], np.stack([ball, hand, base], 1))
+    fit = folder / "fit.json"
+    fit.write_text(_run_cli("filter", str(tsv), "--markers", "ball,hand", "--auto", "--json"))
+    served = _serve(request, str(tsv), "--filter", str(fit))
+    served.tsv, served.fit = tsv, json.loads(fit.read_text())
+    return served
+
+
+@pytest.fixture(scope="module")
+def imu_grid_server(request, tmp_path_factory):
+    """Seven sensors (copies of the two xio excerpts) and their compressed points."""
+    import shutil
+
+    folder = tmp_path_factory.mktemp("view-imu-grid")
+    sensors = folder / "body"
+    for i in range(7):
+        shutil.copytree(DATA / "xio" / ("pelvis" if i % 2 else "left-foot"), sensors / f"s{i}")
+    mkp = folder / "body.mkp"
+    _run_cli("compress", str(sensors), "--max-angle", "2", "-o", str(mkp))
+    return _serve(request, str(sensors), str(mkp))
 
 
 class Page:
@@ -406,3 +459,135 @@ def test_marker_page_draws_the_markers_where_they_project(open_page, marker_serv
             first = pts
     moved = [np.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(first, pts) if a is not None and b is not None]
     assert max(moved) > 3
+
+
+def test_markers_have_a_key_and_no_layout_or_follow(open_page, marker_server):
+    page = open_page(marker_server)
+    assert not page.page.is_visible("#layout") and not page.page.is_visible("#follow")
+    assert page.page.is_visible("#trail") and page.page.input_value("#trail") == "1"
+    key = page.page.locator(".legend .key li").all_text_contents()
+    assert [k.split(" ")[0] for k in key] == ["markers", "trajectories", "fitted", "knots"]
+
+
+def _trail_expected(times, positions, fit, labels, t, w):
+    """Vertices of the trajectory and fitted lines and knots within [t - w, t + w], from the files."""
+    inside = (times >= t - w) & (times <= t + w)
+    finite = np.isfinite(positions).all(axis=2)
+    both = inside[1:, None] & inside[:-1, None]
+    trajectory = 2 * int((both & finite[1:] & finite[:-1]).sum())
+    fitted = knots = 0
+    for entry in fit:
+        m = labels.index(entry["name"])
+        span = (times >= entry["pieces"][0]["t0"] - 1e-9) & (times <= entry["pieces"][-1]["t1"] + 1e-9)
+        ok = span & finite[:, m]
+        fitted += 2 * int((both[:, 0] & ok[1:] & ok[:-1]).sum())
+        kt = np.array([p["t0"] for p in entry["pieces"][1:]])
+        knots += int(((kt >= t - w) & (kt <= t + w)).sum())
+    return {"trajectory": trajectory, "fitted": fitted, "knots": knots}
+
+
+def test_the_trail_draws_only_the_window_around_the_current_time(open_page, long_marker_server):
+    markers = mocapkit.load(long_marker_server.tsv)
+    times = np.asarray(markers.times)
+    labels = list(markers.labels)
+    fit = long_marker_server.fit
+    n = len(times)
+    page = open_page(long_marker_server)
+    assert page.problems() == []
+    bg = _rgb(page.js("window.mocapkitView.background"))
+    r = _canvas_rect(page, "#view3d canvas")
+    drawn = {}
+    for choice, w in (("0.5", 0.5), ("1", 1.0), ("3", 3.0), ("all", np.inf)):
+        page.page.select_option("#trail", choice)
+        for frame in (0, 333, n - 1):
+            page.js("(i) => window.mocapkitView.setFrame(i)", frame)
+            got = page.js("window.mocapkitView.drawnTrail('p0')")
+            assert got == _trail_expected(times, markers.positions, fit, labels, times[frame], w), (choice, frame)
+        img = page.screenshot()[int(r["y"]):int(r["y"] + r["h"]), int(r["x"]):int(r["x"] + r["w"])]
+        drawn[choice] = int((np.abs(img - bg).max(axis=2) > 12).sum())
+    assert got["knots"] == sum(len(e["pieces"]) - 1 for e in fit) > 5  # all of them with "all"
+    # fewer pixels of lines and knots the narrower the window (frame n - 1: half a window before it)
+    assert drawn["0.5"] * 1.3 < drawn["1"] and drawn["1"] * 1.3 < drawn["3"] and drawn["3"] < drawn["all"]
+    assert page.problems() == []
+
+
+def _centre_and_height(page: Page, panels=("p0", "p1")):
+    """The centre of the joints' screen box (fractions of the canvas from its centre) and the height of
+    p0's joints (fraction of the canvas height)."""
+    r = _canvas_rect(page, "#view3d canvas")
+    pts = np.array([q for pid in panels for q in page.positions(pid) if q is not None])
+    p0 = np.array([q for q in page.positions(panels[0]) if q is not None])
+    cx = ((pts[:, 0].min() + pts[:, 0].max()) / 2 - r["x"] - r["w"] / 2) / r["w"]
+    cy = ((pts[:, 1].min() + pts[:, 1].max()) / 2 - r["y"] - r["h"] / 2) / r["h"]
+    return (cx, cy), (p0[:, 1].max() - p0[:, 1].min()) / r["h"]
+
+
+def test_follow_keeps_a_travelling_skeleton_in_the_middle(open_page, walking_server):
+    n = len(mocapkit.load(AMC, asf=ASF, rate=15).times)
+    page = open_page(walking_server)
+    assert page.problems() == []
+    assert page.page.is_checked("#follow")  # on by default: the root travels far for the body's size
+    frames = [0, n // 4, n // 2, (3 * n) // 4, n - 1]
+    follow = []
+    for frame in frames:
+        page.js("(i) => window.mocapkitView.setFrame(i)", frame)
+        follow.append(_centre_and_height(page))
+        img = page.screenshot()
+        for panel in ("p0", "p1"):
+            assert _drawn_fraction(img, page.positions(panel), _rgb(page.js("window.mocapkitView.background"))) >= 0.8
+    off = np.hypot(*np.array([c for c, _ in follow]).T)
+    height = np.array([h for _, h in follow])
+    assert off.max() < 0.05, off  # the pair's centre stays in the middle of the view
+    assert np.median(height) > 0.3, height  # framed on about one body
+    # the whole take instead: the skeletons wander about the view and are drawn smaller
+    page.page.click("#follow")
+    whole = []
+    for frame in frames:
+        page.js("(i) => window.mocapkitView.setFrame(i)", frame)
+        whole.append(_centre_and_height(page))
+    w_off = np.hypot(*np.array([c for c, _ in whole]).T)
+    w_height = np.array([h for _, h in whole])
+    assert w_off.max() > 0.12 and np.median(w_height) < 0.7 * np.median(height), whole
+    # back to following, then orbit with the mouse: the view turns, and still follows
+    page.page.click("#follow")
+    page.js("(i) => window.mocapkitView.setFrame(i)", n // 2)
+    before = np.array(page.positions("p0"))
+    r = _canvas_rect(page, "#view3d canvas")
+    page.page.mouse.move(r["x"] + r["w"] / 2, r["y"] + r["h"] / 2)
+    page.page.mouse.down()
+    page.page.mouse.move(r["x"] + r["w"] / 2 + 200, r["y"] + r["h"] / 2 + 40, steps=8)
+    page.page.mouse.up()
+    page.js("(i) => window.mocapkitView.setFrame(i)", 0)
+    page.js("(i) => window.mocapkitView.setFrame(i)", n // 2)
+    turned = np.array(page.positions("p0"))
+    assert np.abs(turned - before).max() > 20  # the orbit was kept
+    turned = []
+    for frame in frames:
+        page.js("(i) => window.mocapkitView.setFrame(i)", frame)
+        turned.append(_centre_and_height(page)[0])
+    # seen from elsewhere the pair's screen box is a little off the centre, but not wandering as without follow
+    assert np.hypot(*np.array(turned).T).max() < 0.1, turned
+    assert page.problems() == []
+
+
+def test_follow_is_off_for_a_skeleton_that_stays_put(open_page, skeleton_server):
+    page = open_page(skeleton_server)
+    assert page.page.is_visible("#follow") and not page.page.is_checked("#follow")
+    assert page.page.is_visible("#layout") and not page.page.is_visible("#trail")
+
+
+def test_imu_sensors_in_a_grid_that_fits_the_view(open_page, imu_grid_server):
+    page = open_page(imu_grid_server)
+    assert page.problems() == []
+    r = _canvas_rect(page, "#view3d canvas")
+    pts = np.array(page.positions("p0"))  # original, decoded per sensor
+    assert pts.shape == (14, 2)
+    spacing = np.hypot(*(pts[1::2] - pts[0::2]).T)  # a sensor's original to its decode, on the screen
+    margin = spacing.min() / 2
+    assert (pts[:, 0] > r["x"] + margin).all() and (pts[:, 0] < r["x"] + r["w"] - margin).all()
+    assert (pts[:, 1] > r["y"] + margin).all() and (pts[:, 1] < r["y"] + r["h"] - margin).all()
+    columns = np.unique(np.round((pts[0::2, 0] - pts[0::2, 0].min()) / spacing.min()))
+    assert len(columns) >= 2  # a grid, not one column
+    assert spacing.min() > 0.09 * r["w"], spacing / r["w"]  # the bodies use the view
+    img = page.screenshot()
+    assert _drawn_fraction(img, pts.tolist(), _rgb(page.js("window.mocapkitView.background"))) == 1.0

@@ -1,5 +1,6 @@
 // An IMU panel: per sensor a rotating body for the original and one for the decode, side by side and
-// labelled, and (in the side column) the sensor's angle error over time.
+// labelled, the sensors in a grid shaped to the view, and (in the side column) each sensor's angle
+// error over time.
 
 import {
   AxesHelper, Box3, BoxGeometry, EdgesGeometry, Group, LineBasicMaterial, LineSegments, Mesh,
@@ -11,8 +12,13 @@ import { Panel, textSprite } from "./panel.js";
 
 /** Body size (cm): long along x, medium along y, thin along z, so every axis reads at a glance. */
 const BODY = [24, 14, 6];
+/** Distance between the original's and the decode's body of a sensor, and between rows of the grid. */
 const COLUMN = 50;
 const ROW = 48;
+/** Space between two sensors of a grid row, beyond their bodies. */
+const GAP = 16;
+/** Half the space a body may take as it turns. */
+const REACH = BODY[0] * 0.9;
 /** Face colours in BoxGeometry's face order: +x, -x, +y, -y, +z, -z. */
 const FACES = ["#e05252", "#7a2c2c", "#4cbb5e", "#2b6634", "#4c7ee0", "#2b4279"];
 
@@ -46,15 +52,14 @@ export class ImuPanel extends Panel {
     h2.textContent = `${spec.name}: angle error`;
     section.append(h2);
     plots.append(section);
-    (spec.sensors || []).forEach((sensor, s) => {
-      // one row of bodies per sensor, then its error plot in the side column
+    (spec.sensors || []).forEach((sensor) => {
+      // one cell of bodies per sensor, then its error plot in the side column
       const where = `panel ${spec.id} sensor ${sensor.name}`;
       const quats = { original: decodeArray(sensor.original, `${where} original`), decoded: decodeArray(sensor.decoded, `${where} decoded`) };
       const times = decodeArray(sensor.times, `${where} times`).data;
-      const entry = { name: sensor.name, times, bodies: [] };
-      const row = new Group();
-      row.position.set(0, -s * ROW, 0);
+      const row = new Group(); // one grid cell, placed by arrange()
       this.root.add(row);
+      const entry = { name: sensor.name, times, bodies: [], row };
       const name = textSprite(sensor.name, 5);
       name.position.set(COLUMN / 2, 18, 0);
       row.add(name);
@@ -99,12 +104,42 @@ export class ImuPanel extends Panel {
     });
     this.label = textSprite(spec.name, 6);
     this.root.add(this.label);
+    this.arrange(1);
+  }
+
+  /** Width of one sensor's cell of the grid (its bodies and the gap to the next). */
+  cellWidth() {
+    const slots = Math.max(1, ...this.sensors.map((s) => s.bodies.length));
+    return (slots - 1) * COLUMN + 2 * REACH + GAP;
+  }
+
+  /**
+   * Lay the sensors out in a grid, row by row in the file's order, with the number of columns that
+   * shows the bodies largest in a view of width/height `aspect`.
+   */
+  arrange(aspect) {
+    const n = Math.max(this.sensors.length, 1);
+    const cell = this.cellWidth();
+    let best = 1;
+    let bestFit = 0;
+    for (let cols = 1; cols <= n; cols++) {
+      const rows = Math.ceil(n / cols);
+      const fit = Math.min(aspect / (cols * cell), 1 / (rows * ROW + 12));
+      if (fit > bestFit * 1.0001) {
+        best = cols;
+        bestFit = fit;
+      }
+    }
+    this.columns = best;
+    this.sensors.forEach((sensor, s) => sensor.row.position.set((s % best) * cell, -Math.floor(s / best) * ROW, 0));
   }
 
   localBox() {
     const n = Math.max(this.sensors.length, 1);
-    const r = BODY[0] * 0.9;
-    return new Box3(new Vector3(-r, -(n - 1) * ROW - 20, -r), new Vector3(COLUMN + r, 22, r));
+    const cols = Math.min(this.columns || 1, n);
+    const rows = Math.ceil(n / cols);
+    const width = (cols - 1) * this.cellWidth() + (this.cellWidth() - GAP - 2 * REACH);
+    return new Box3(new Vector3(-REACH, -(rows - 1) * ROW - 20, -REACH), new Vector3(width + REACH, 22, REACH));
   }
 
   update(t) {

@@ -59,9 +59,14 @@ export class Panel {
     return this.rawBox.clone().applyMatrix4(this.inner.matrix);
   }
 
-  /** Place the panel's name label (if any) above its upright box `box`, `row` label heights higher. */
-  placeLabel(box, row = 0) {
+  /**
+   * Place the panel's name label (if any) above its upright box `box`, `row` label heights higher;
+   * `height`: the label's height in scene units (default: the size it was made with).
+   */
+  placeLabel(box, row = 0, height = null) {
     if (!this.label) return;
+    if (!this.labelScale) this.labelScale = this.label.scale.clone();
+    this.label.scale.copy(this.labelScale).multiplyScalar(height === null ? 1 : height / this.labelScale.y);
     const h = box.getSize(new Vector3()).length();
     const y = box.max.y + h * 0.05 + row * this.label.scale.y * 1.3;
     this.label.position.set((box.min.x + box.max.x) / 2, y, (box.min.z + box.max.z) / 2);

@@ -1,7 +1,7 @@
 // A skeleton panel: joints as small spheres coloured by their error, bones as lines parent -> child.
 
 import {
-  BufferAttribute, BufferGeometry, Color, InstancedMesh, LineBasicMaterial, LineSegments, Matrix4,
+  Box3, BufferAttribute, BufferGeometry, Color, InstancedMesh, LineBasicMaterial, LineSegments, Matrix4,
   MeshLambertMaterial, SphereGeometry, Vector3,
 } from "three";
 import { decodeArray, sampleAt } from "./arrays.js";
@@ -30,6 +30,8 @@ export class SkeletonPanel extends Panel {
     this.growRaw(this.positions);
     const size = this.rawSize();
     this.radius = size * (this.decoded ? 0.011 : 0.009);
+    /** Scale of the joints' spheres (setJointSize). */
+    this.jointScale = 1;
 
     const J = this.nJoints;
     this.joints = new InstancedMesh(new SphereGeometry(this.radius, 14, 10), new MeshLambertMaterial(), J);
@@ -59,6 +61,77 @@ export class SkeletonPanel extends Panel {
     this.current = -1;
   }
 
+  /**
+   * Sizes in upright scene units (cm): `height`, the median over frames of the vertical extent of the
+   * joints; `size`, the median diagonal of a frame's box of joints; `travel`, the diagonal of the
+   * horizontal box of the root joint's path over the take.
+   */
+  measure() {
+    if (this.measured) return this.measured;
+    const J = this.nJoints;
+    const n = this.nFrames;
+    const P = this.positions;
+    const up = this.spec.up === "z" ? 2 : 1;
+    const across = up === 2 ? 1 : 2;
+    const heights = [];
+    const sizes = [];
+    const step = Math.max(1, Math.floor(n / 500));
+    const lo = [0, 0, 0];
+    const hi = [0, 0, 0];
+    for (let k = 0; k < n; k += step) {
+      lo.fill(Infinity);
+      hi.fill(-Infinity);
+      for (let j = 0; j < J; j++) {
+        const o = (k * J + j) * 3;
+        if (!(Number.isFinite(P[o]) && Number.isFinite(P[o + 1]) && Number.isFinite(P[o + 2]))) continue;
+        for (let c = 0; c < 3; c++) {
+          lo[c] = Math.min(lo[c], P[o + c]);
+          hi[c] = Math.max(hi[c], P[o + c]);
+        }
+      }
+      if (!(hi[0] >= lo[0])) continue;
+      heights.push(hi[up] - lo[up]);
+      sizes.push(Math.hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]));
+    }
+    const median = (v) => (v.length ? v.sort((a, b) => a - b)[v.length >> 1] : 0);
+    const root = Math.max(this.parents.indexOf(-1), 0);
+    const path = [[Infinity, -Infinity], [Infinity, -Infinity]];
+    for (let k = 0; k < n; k++) {
+      const o = (k * J + root) * 3;
+      const a = P[o];
+      const b = P[o + across];
+      if (!(Number.isFinite(a) && Number.isFinite(b))) continue;
+      path[0][0] = Math.min(path[0][0], a);
+      path[0][1] = Math.max(path[0][1], a);
+      path[1][0] = Math.min(path[1][0], b);
+      path[1][1] = Math.max(path[1][1], b);
+    }
+    const travel = path[0][1] >= path[0][0] ? Math.hypot(path[0][1] - path[0][0], path[1][1] - path[1][0]) : 0;
+    const scale = this.inner.scale.x;
+    this.measured = { height: median(heights) * scale, size: median(sizes) * scale, travel: travel * scale };
+    return this.measured;
+  }
+
+  /** Joints drawn `fraction` of a body size across (null: their size relative to the whole take). */
+  setJointSize(fraction) {
+    const size = this.measure().size;
+    this.jointScale = fraction === null || !(size > 0) ? 1 : (fraction * size * (this.decoded ? 1.2 : 1)) / this.radius;
+  }
+
+  /** The box of the joints at the current frame in the panel's upright coordinates (empty if none). */
+  currentBox() {
+    const box = new Box3();
+    const k = Math.max(this.current, 0);
+    const J = this.nJoints;
+    const v = new Vector3();
+    for (let j = 0; j < J; j++) {
+      const o = (k * J + j) * 3;
+      v.set(this.positions[o], this.positions[o + 1], this.positions[o + 2]);
+      if (Number.isFinite(v.x + v.y + v.z)) box.expandByPoint(v.applyMatrix4(this.inner.matrix));
+    }
+    return box;
+  }
+
   update(t) {
     const k = sampleAt(this.times, t);
     this.current = k;
@@ -70,7 +143,7 @@ export class SkeletonPanel extends Panel {
       const y = P[base + 3 * j + 1];
       const z = P[base + 3 * j + 2];
       if (Number.isFinite(x) && Number.isFinite(y) && Number.isFinite(z)) {
-        this.matrix.makeTranslation(x, y, z);
+        this.matrix.makeScale(this.jointScale, this.jointScale, this.jointScale).setPosition(x, y, z);
       } else {
         this.matrix.makeScale(0, 0, 0);
       }

@@ -2,7 +2,7 @@
 // timeline, and fills in the test hooks of window.mocapkitView (see hooks.js and docs/viewer.md).
 
 import {
-  AmbientLight, Box3, Color, DirectionalLight, PerspectiveCamera, Scene, Vector3, WebGLRenderer,
+  AmbientLight, Box3, Color, DirectionalLight, GridHelper, PerspectiveCamera, Scene, Vector3, WebGLRenderer,
 } from "three";
 import { OrbitControls } from "three/addons/OrbitControls.js";
 import { decodeArray } from "./arrays.js";
@@ -13,6 +13,22 @@ import { SkeletonPanel } from "./skeleton.js";
 import { Timeline } from "./timeline.js";
 
 const BACKGROUND = "#1d2026";
+/** Follow by default when a skeleton's root travels more than this many body heights over the take. */
+const FOLLOW_TRAVEL = 1.5;
+const FLOOR = "#2c313b";
+const FLOOR_AXES = "#3a414e";
+
+/** 1, 2 or 5 times a power of ten, nearest (in ratio) to `v` > 0. */
+function niceStep(v) {
+  const p = 10 ** Math.floor(Math.log10(v));
+  const f = v / p;
+  return p * (f < 1.5 ? 1 : f < 3.5 ? 2 : f < 7.5 ? 5 : 10);
+}
+
+/** `v` rounded to a multiple of `step`. */
+function snap(v, step) {
+  return Math.round(v / step) * step;
+}
 const hooks = window.mocapkitView;
 
 function status(text, isError = false) {
@@ -73,10 +89,30 @@ class View {
       throw new Error(`panel ${spec.id}: unknown kind ${JSON.stringify(spec.kind)}`);
     });
     for (const p of this.panels) this.world.add(p.root);
+    this.skeletons = this.panels.filter((p) => p instanceof SkeletonPanel);
+    this.markerPanels = this.panels.filter((p) => p instanceof MarkerPanel);
     this.legends();
 
+    // side by side / overlaid: only a skeleton and its decode have anything to overlay
     this.layoutSelect = document.getElementById("layout");
-    this.layoutSelect.addEventListener("change", () => { this.layout(); this.render(); });
+    this.pairs = this.skeletons.some((p) => p.decoded);
+    this.layoutSelect.closest("label").hidden = !this.pairs;
+    this.layoutSelect.addEventListener("change", () => { this.layout(); this.drawFrame(this.timeline.frame); });
+    // follow: on by default when a skeleton's root travels far for its size
+    this.followBox = document.getElementById("follow");
+    this.followBox.closest("label").hidden = this.skeletons.length === 0;
+    this.followBox.checked = this.skeletons.some((p) => {
+      const m = p.measure();
+      return m.height > 0 && m.travel > FOLLOW_TRAVEL * m.height;
+    });
+    this.followBox.addEventListener("change", () => { this.layout(); this.drawFrame(this.timeline.frame); });
+    // the trail: how much of the markers' trajectories, curves and knots is drawn
+    this.trailSelect = document.getElementById("trail");
+    this.trailSelect.closest("label").hidden = this.markerPanels.length === 0;
+    this.trailSelect.addEventListener("change", () => { this.setTrail(); this.drawFrame(this.timeline.frame); });
+    this.setTrail();
+    this.floor = null;
+
     this.timeline = new Timeline(times, scene.segments, (f) => this.drawFrame(f), () => this.requestRender());
     this.resize();
     this.layout();
@@ -84,46 +120,158 @@ class View {
     this.timeline.setFrame(0);
   }
 
-  /** One legend per decoded skeleton: its error scale in cm. */
+  /** The side column's legends: the error scale of each decoded skeleton, the colours of each marker panel. */
   legends() {
     const box = document.getElementById("legends");
     for (const p of this.panels) {
-      if (!(p instanceof SkeletonPanel) || !p.error) continue;
       const div = document.createElement("div");
       div.className = "legend";
       div.dataset.panel = p.id;
       const spec = p.spec;
       const title = document.createElement("h2");
-      const upTo = spec.bound !== null && spec.bound !== undefined ? `the bound, ${spec.bound} cm` : "the largest error";
-      title.textContent = `${spec.name}: joint error (cm), 0 to ${upTo}`;
-      const canvas = document.createElement("canvas");
-      canvas.width = 280;
-      canvas.height = 34;
-      div.append(title, canvas);
+      if (p instanceof SkeletonPanel && p.error) {
+        const upTo = spec.bound !== null && spec.bound !== undefined ? `the bound, ${spec.bound} cm` : "the largest error";
+        title.textContent = `${spec.name}: joint error (cm), 0 to ${upTo}`;
+        const canvas = document.createElement("canvas");
+        canvas.width = 280;
+        canvas.height = 34;
+        div.append(title, canvas);
+        drawLegend(canvas, p.scaleMax);
+      } else if (p instanceof MarkerPanel) {
+        title.textContent = spec.name;
+        const ul = document.createElement("ul");
+        ul.className = "key";
+        for (const [what, colour, shape] of p.legendItems()) {
+          const li = document.createElement("li");
+          const swatch = document.createElement("span");
+          swatch.className = `swatch ${shape}`;
+          swatch.style.backgroundColor = `#${colour.getHexString()}`;
+          li.append(swatch, what);
+          ul.append(li);
+        }
+        div.append(title, ul);
+      } else {
+        continue;
+      }
       box.append(div);
-      drawLegend(canvas, p.scaleMax);
     }
   }
 
-  /** Side by side (each panel offset along x by the widths before it) or overlaid; frame the camera. */
+  /** Half-width (s) of the trail window chosen in #trail (Infinity: the whole take). */
+  setTrail() {
+    const v = this.trailSelect.value;
+    const seconds = v === "all" ? Infinity : Number(v);
+    for (const p of this.markerPanels) p.trailSeconds = seconds;
+  }
+
+  /** Whether the camera follows the skeletons. */
+  get following() {
+    return this.skeletons.length > 0 && this.followBox.checked;
+  }
+
+  /**
+   * Place the panels side by side (each offset along x by the widths before it) or overlaid, and frame
+   * the camera on all of them; when following, skeletons are one body apart and the camera is framed
+   * on their current poses.
+   */
   layout() {
-    const side = this.layoutSelect.value !== "overlay";
+    const side = !(this.pairs && this.layoutSelect.value === "overlay");
+    const follow = this.following;
+    const imus = this.panels.filter((p) => p instanceof ImuPanel);
+    for (const p of imus) p.arrange(this.camera.aspect / (side ? imus.length : 1));
+    const body = Math.max(0, ...this.skeletons.map((p) => p.measure().size));
     let x = 0;
+    let followX = 0;
     const all = new Box3();
+    const paths = new Box3(); // the followed skeletons' boxes over the take, as placed
+    for (const p of this.skeletons) p.setJointSize(follow ? 0.012 : null);
     this.panels.forEach((p, i) => {
       const box = p.localBox();
       p.placeLabel(box, side ? 0 : i); // overlaid: the labels stacked
       const width = box.max.x - box.min.x;
       const gap = 0.15 * Math.max(width, box.max.y - box.min.y);
-      const dx = side ? x - box.min.x : 0;
+      let dx = side ? x - box.min.x : 0;
+      if (follow && p instanceof SkeletonPanel) {
+        dx = side ? followX : 0;
+        followX += body;
+        paths.union(box.clone().translate(new Vector3(dx, 0, 0)));
+      }
       p.root.position.set(dx, 0, 0);
-      if (side) x += width + gap;
+      if (side) x = Math.max(x, dx + box.max.x + gap);
       all.union(box.clone().translate(new Vector3(dx, 0, 0)));
       if (p.label) all.expandByPoint(p.label.position.clone().add(p.root.position).setY(p.label.position.y + p.label.scale.y));
     });
     if (all.isEmpty()) all.set(new Vector3(-100, -100, -100), new Vector3(100, 100, 100)); // nothing to draw
     this.world.updateMatrixWorld(true);
-    this.frameCamera(all);
+    this.placeFloor(follow ? paths : null, body);
+    if (follow) {
+      this.followed = this.skeletons.length;
+      this.followLabels();
+      this.frameFollow();
+    } else {
+      this.followed = 0;
+      this.frameCamera(all);
+    }
+  }
+
+  /** A floor grid under the followed skeletons' paths (so that travel shows when the camera follows). */
+  placeFloor(paths, body) {
+    if (this.floor) {
+      this.world.remove(this.floor);
+      this.floor.geometry.dispose();
+      this.floor.material.dispose();
+      this.floor = null;
+    }
+    if (!paths || paths.isEmpty() || !(body > 0)) return;
+    const cell = niceStep(body / 3);
+    const extent = Math.max(paths.max.x - paths.min.x, paths.max.z - paths.min.z) + 2 * body;
+    const divisions = Math.min(Math.ceil(extent / cell), 400);
+    this.floor = new GridHelper(divisions * cell, divisions, FLOOR_AXES, FLOOR);
+    this.floor.position.set(snap((paths.min.x + paths.max.x) / 2, cell), paths.min.y, snap((paths.min.z + paths.max.z) / 2, cell));
+    this.floor.name = "floor";
+    this.world.add(this.floor);
+  }
+
+  /** The centre (world) of the followed skeletons' joints at the current frame; null if none is drawn. */
+  followCentre() {
+    const box = new Box3();
+    for (const p of this.skeletons) {
+      const b = p.currentBox();
+      if (!b.isEmpty()) box.union(b.translate(p.root.position));
+    }
+    return box.isEmpty() ? null : box.getCenter(new Vector3());
+  }
+
+  /** Put the followed skeletons' labels above their current poses. */
+  followLabels() {
+    const side = !(this.pairs && this.layoutSelect.value === "overlay");
+    this.skeletons.forEach((p, i) => {
+      const box = p.currentBox();
+      if (!box.isEmpty()) p.placeLabel(box, side ? 0 : i, p.measure().height * 0.05);
+    });
+  }
+
+  /** Frame the camera on about one body around the skeletons' current centre (a default view). */
+  frameFollow() {
+    const centre = this.followCentre() || new Vector3();
+    const m = this.skeletons.map((p) => p.measure());
+    const height = Math.max(...m.map((v) => v.height), 1e-3);
+    const size = Math.max(...m.map((v) => v.size), height);
+    const side = !(this.pairs && this.layoutSelect.value === "overlay");
+    const spread = side ? (this.skeletons.length - 1) * size : 0;
+    const box = new Box3().setFromCenterAndSize(centre, new Vector3(spread + height * 0.8, height * 1.25, height * 0.8));
+    this.frameCamera(box);
+    this.followAt = centre;
+  }
+
+  /** Move the camera with the skeletons: target and position shift by the centre's move since last frame. */
+  follow() {
+    const centre = this.followCentre();
+    if (!centre) return;
+    const delta = centre.clone().sub(this.followAt);
+    this.camera.position.add(delta);
+    this.controls.target.add(delta);
+    this.followAt = centre;
   }
 
   /** Put the camera in front of `box` (slightly from above and the side) so that all of it is seen. */
@@ -158,14 +306,23 @@ class View {
     const w = Math.max(host.clientWidth, 1);
     const h = Math.max(host.clientHeight, 1);
     this.renderer.setSize(w, h, false);
-    this.camera.aspect = w / h;
+    const aspect = w / h;
+    const changed = Math.abs(aspect - this.camera.aspect) > 1e-6;
+    this.camera.aspect = aspect;
     this.camera.updateProjectionMatrix();
-    if (this.framedBox) this.frameCamera(this.framedBox);
+    if (!this.framedBox) return;
+    if (changed && this.panels.some((p) => p instanceof ImuPanel)) this.layout(); // the grid fits the view's shape
+    else if (this.followed) this.frameFollow();
+    else this.frameCamera(this.framedBox);
   }
 
   drawFrame(f) {
     const t = this.times.length ? this.times[f] : 0;
     for (const p of this.panels) p.update(t);
+    if (this.followed) {
+      this.followLabels();
+      this.follow();
+    }
     this.render();
   }
 
@@ -215,6 +372,11 @@ async function main() {
     frame: () => view.timeline.frame,
     jointScreenPositions: (panelId) => view.screenPositions(panelId),
     panels: () => view.panels.map((p) => ({ id: p.id, kind: p.spec.kind })),
+    drawnTrail: (panelId) => {
+      const panel = view.markerPanels.find((p) => p.id === panelId);
+      if (!panel) throw new Error(`no marker panel ${panelId}`);
+      return panel.drawnTrail();
+    },
   });
   status("");
   hooks.ready = true;
