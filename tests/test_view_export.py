@@ -552,3 +552,19 @@ def test_real_imu_with_its_packets_and_markers_with_their_fit(tmp_path):
     assert r["frames_written"] == math.floor(119 / 300 * 50 + 1e-6) + 1
     assert len(gif_frames(tmp_path / "m.gif")[0]) == r["frames_written"]
     assert sorted(os.listdir(tmp_path)) == ["fit.json", "imu.gif", "m.gif", "xio.mkp"]
+
+
+def test_the_command_checks_the_export_before_reading_the_files(tmp_path):
+    """A wrong suffix or a GIF's fps is named before the inputs are read (a garbage input is not reached)."""
+    from mocapkit import cli
+
+    bad = tmp_path / "garbage.bvh"
+    bad.write_bytes(b"not a BVH\n")
+    for args, words in ((["--export", tmp_path / "v.avi"], "unknown video format"),
+                        (["--export", tmp_path / "v.gif", "--fps", "60"], "at most 50")):
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()), \
+                pytest.raises(SystemExit) as e:
+            cli.main([str(a) for a in ["view", bad, *args]])
+        assert e.value.code == 2 and words in err.getvalue() and "garbage.bvh" not in err.getvalue(), err.getvalue()
+    assert sorted(os.listdir(tmp_path)) == ["garbage.bvh"]

@@ -175,3 +175,136 @@ def test_a_gltf_decode_is_paired_and_within_its_bound(tmp_path):
     orig, dec = build_scene([BVH, glb])["panels"]
     assert dec["role"] == "decoded" and dec["decoded_from"] == orig["id"]
     assert 0 < dec["max_error"] <= 0.5 + 1e-6
+
+
+def _shifted(src: Path, dst: Path, rows: int | None = None, dt: float = 0.0) -> Path:
+    """``src`` (a ``Time (s),W,X,Y,Z`` CSV) with its first ``rows`` samples, its clock moved by ``dt`` s."""
+    lines = src.read_text().splitlines()
+    body = lines[1:] if rows is None else lines[1:1 + rows]
+    out = [lines[0]] + [",".join([f"{float(ln.split(',')[0]) + dt:.3f}", *ln.split(",")[1:]]) for ln in body]
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    dst.write_text("\n".join(out) + "\n")
+    return dst
+
+
+def test_compressions_of_another_recording_are_refused(tmp_path):
+    """Same sensor name, but a shorter take or another clock: refused, not drawn with a decode that stops
+    short (samples with no error) or keyframes at the wrong times."""
+    short = _shifted(NGIMU, tmp_path / "short" / NGIMU.name, rows=12)
+    later = _shifted(NGIMU, tmp_path / "later" / NGIMU.name, dt=100.0)
+    for src in (short, later):
+        mkp, pts = tmp_path / f"{src.parent.name}.mkp", tmp_path / f"{src.parent.name}.csv"
+        mocapkit("compress", src, "--max-angle", "2", "-o", mkp)
+        mocapkit("decompress", mkp, "-o", pts)
+        with pytest.raises(InvalidParameterError, match="not a compression of this file"):
+            build_scene([NGIMU, mkp])
+        if src is later:  # a points CSV does not say its sample count; its times do
+            with pytest.raises(InvalidParameterError, match="101.254 s"):
+                build_scene([NGIMU, pts])
+    (s,) = build_scene([later, tmp_path / "later.mkp"])["panels"][0]["sensors"]  # its own file: fine
+    assert np.isfinite(decode_array(s["error_deg"])).all()
+
+
+def test_a_second_compression_of_the_same_file_gets_its_own_panel(tmp_path):
+    recs = {}
+    for deg in ("2", "5"):
+        rec = json.loads(mocapkit("compress", XIO, "--max-angle", deg, "-o", tmp_path / f"x{deg}.mkp", "--json").stdout)
+        recs[float(deg)] = {s["name"]: s for s in (rec if isinstance(rec, list) else rec["signals"])}
+    scene = build_scene([XIO, tmp_path / "x2.mkp", tmp_path / "x5.mkp"])
+    assert [p["name"] for p in scene["panels"]] == ["xio + x2.mkp", "xio + x5.mkp"]
+    for panel in scene["panels"]:
+        for s in panel["sensors"]:
+            assert s["max_error_deg"] == pytest.approx(recs[s["bound_deg"]][s["name"]]["max_deg"], abs=1e-4)
+    assert {s["bound_deg"] for p in scene["panels"] for s in p["sensors"]} == {2.0, 5.0}
+
+
+def test_a_points_csv_of_no_unit_quaternions_names_the_line(tmp_path):
+    pts = tmp_path / "p.csv"
+    pts.write_text("time,w,x,y,z,tick,gap_before\n0,1,0,0,0,0,0\n\n0.1,0,0,0,0,5,0\n")
+    with pytest.raises(MocapFormatError, match=r"p\.csv:4: point 2: .* not a unit quaternion"):
+        build_scene([pts])
+
+
+def test_segments_outside_the_frames_are_refused(tmp_path):
+    seg = tmp_path / "seg.json"
+    good = {"job": "segment", "file": str(BVH), "n_frames": 60, "method": "auto",
+            "cuts": [{"frame": 30, "time_s": 1.0}],
+            "segments": [{"t0": 0, "t1": 1, "frame0": 0, "frame1": 30}, {"t0": 1, "t1": 2, "frame0": 30, "frame1": 60}]}
+    seg.write_text(json.dumps(good))
+    assert build_scene([BVH], segments=seg)["segments"]["cuts"][0]["frame"] == 30
+    for cut, seg1 in ((-3, 30), (60, 30), (30, 61), (30, 0)):  # -3 would be frame 57 by Python's indexing
+        bad = json.loads(json.dumps(good))
+        bad["cuts"][0]["frame"] = cut
+        bad["segments"][0]["frame1"] = seg1
+        seg.write_text(json.dumps(bad))
+        with pytest.raises(MocapFormatError, match=r"seg\.json: (cut at frame|segment of frames)"):
+            build_scene([BVH], segments=seg)
+
+
+def test_an_mvnx_and_its_clip_stand_z_up(tmp_path):
+    mvnx = DATA / "mvnx" / "86_01_xsens_60hz.mvnx"
+    clip = tmp_path / "m.mkc"
+    mocapkit("compress", mvnx, "--max-position-error", "1", "-o", clip)
+    panels = build_scene([mvnx, clip])["panels"]
+    assert [p["role"] for p in panels] == ["original", "decoded"]
+    for p in panels:
+        pos = decode_array(p["positions"]).astype(np.float64)
+        height = pos[..., 2].max(axis=1) - pos[..., 2].min(axis=1)  # head to toe, per frame
+        assert p["up"] == "z" and height.min() > 100  # a standing person, in cm
+
+
+def test_knots_are_the_piece_starts_at_the_filtered_values(tmp_path):
+    """Pieces with knots (the marker's x and z only): the knots and their positions against the filter's
+    own CSV at the knot's sample; the axis not filtered stays NaN."""
+    from mocapkit.io.loaders import load_markers
+
+    mk = load_markers(TSV)
+    fit_json, fit_csv = tmp_path / "fit.json", tmp_path / "fit.csv"
+    args = (TSV, "--markers", "unnamed_6:xz", "--penalty", "5")
+    fit_json.write_text(mocapkit("filter", *args, "--json").stdout)
+    mocapkit("filter", *args, "-o", fit_csv)
+    table = np.loadtxt(fit_csv, delimiter=",", skiprows=1)
+    (sig,) = json.loads(fit_json.read_text())
+    expect = [p["t0"] for p in sig["pieces"][1:]]
+    assert len(expect) >= 2, "the test needs knots"
+    (panel,) = build_scene([TSV], filter_json=fit_json)["panels"]
+    (kn,) = panel["knots"]
+    m = mk.labels.index("unnamed_6")
+    assert kn["marker"] == m and kn["times"] == pytest.approx(expect)
+    for t, (x, y, z) in zip(kn["times"], kn["positions"]):
+        row = table[np.argmin(np.abs(table[:, 0] - t))]
+        assert abs(row[0] - t) < 1e-9 and y is None
+        assert (x, z) == pytest.approx((row[1], row[2]), abs=1e-6)
+    fitted = decode_array(panel["fitted"]).astype(np.float64)
+    np.testing.assert_allclose(fitted[:, m, [0, 2]], table[:, 1:3], rtol=0, atol=1e-3)
+    assert np.isnan(fitted[:, m, 1]).all()
+
+
+def test_a_declared_unit_is_kept_and_the_clip_is_drawn_in_it(tmp_path):
+    """An AMC knows its unit (ASF); a clip made with another --unit-cm is drawn in the AMC's unit, its bound
+    converted, so the per-joint errors compare like with like and stay within the bound."""
+    amc, asf = DATA / "cmu" / "86_01_first60.amc", DATA / "cmu" / "86.asf"
+    clip = tmp_path / "c.mkc"
+    mocapkit("compress", amc, "--asf", asf, "--unit-cm", "1", "--max-position-error", "0.2", "-o", clip)
+    from mocapkit.io.loaders import load_motion
+
+    declared = load_motion(amc, asf=asf).skeleton.meta["length_unit_cm"]
+    assert abs(declared - 1) > 0.1
+    scene = build_scene([amc, clip], asf=asf)
+    orig, dec = scene["panels"]
+    assert any("differs" in n for n in scene["notes"]) and not any("no length unit" in n for n in scene["notes"])
+    assert dec["bound"] == pytest.approx(0.2 * declared)
+    assert 0 < dec["max_error"] <= dec["bound"] * (1 + 1e-6)
+    alone = build_scene([amc], asf=asf)["panels"][0]
+    assert np.array_equal(decode_array(alone["positions"]), decode_array(orig["positions"]))
+
+
+def test_a_segmentation_of_another_file_name_gets_a_note(tmp_path):
+    amc, asf = DATA / "cmu" / "86_01_15hz_first1600.amc", DATA / "cmu" / "86.asf"
+    seg = tmp_path / "seg.json"
+    seg.write_text(mocapkit("segment", amc, "--asf", asf, "--method", "auto", "--rate", "15", "--json").stdout)
+    other = tmp_path / "other.amc"
+    other.write_bytes(amc.read_bytes())
+    notes = build_scene([other], segments=seg, asf=asf, rate=15)["notes"]
+    assert any("a segmentation of 86_01_15hz_first1600.amc" in n for n in notes)
+    assert not any("a segmentation of" in n for n in build_scene([amc], segments=seg, asf=asf, rate=15)["notes"])

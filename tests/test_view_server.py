@@ -199,3 +199,35 @@ def test_the_command_opens_the_browser_on_its_url(tmp_path):
             p.kill()
             p.communicate()
     assert p.returncode == 0
+
+
+def _exchange(srv, data: bytes) -> bytes:
+    """``data`` sent as is on one connection; everything the server answers until it closes."""
+    with socket.create_connection((HOST, srv.server_address[1]), timeout=10) as s:
+        s.sendall(data)
+        out = b""
+        while chunk := s.recv(65536):
+            out += chunk
+    return out
+
+
+def test_a_request_body_is_never_read_as_a_request(server):
+    """A refused POST (or a GET) carrying a body: one answer, then the connection ends, so the body (here a
+    request for the scene) is not answered as a second request on the same connection."""
+    srv, _, _ = server
+    host = f"Host: {HOST}:{srv.server_address[1]}\r\n".encode()
+    inner = b"GET /scene.json HTTP/1.1\r\n" + host + b"\r\n"
+    for method in (b"POST", b"GET"):
+        out = _exchange(srv, method + b" /x HTTP/1.1\r\n" + host + b"Content-Length: %d\r\n\r\n" % len(inner) + inner)
+        assert out.count(b"HTTP/1.1 ") == 1 and b'"mocapkit_view"' not in out, out
+        assert b"Connection: close" in out
+
+
+def test_two_host_headers_and_http09_are_refused(server):
+    srv, _, _ = server
+    ours = f"Host: {HOST}:{srv.server_address[1]}\r\n".encode()
+    for hosts in (ours + b"Host: evil.example\r\n", b"Host: evil.example\r\n" + ours):
+        out = _exchange(srv, b"GET /scene.json HTTP/1.1\r\n" + hosts + b"Connection: close\r\n\r\n")
+        assert out.startswith(b"HTTP/1.1 400 ") and b"mocapkit_view" not in out, out
+    # HTTP/0.9 has no answer headers (no Content-Security-Policy, no nosniff): nothing is sent
+    assert _exchange(srv, b"GET /scene.json\r\n" + ours + b"\r\n") == b""

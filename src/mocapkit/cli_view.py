@@ -57,8 +57,11 @@ def view(
 
     span = _frame_range(frames)
     if export is not None:
-        _check_output(export, inputs=[*files, *(p for p in (segments, filter_json, asf) if p is not None)],
-                      option="--export")
+        from mocapkit.view.export import check_export
+
+        inputs = [*files, *(p for p in (segments, filter_json, asf) if p is not None)]
+        _check_output(export, inputs=inputs, option="--export")
+        check_export(export, fps, inputs=inputs)  # suffix, ffmpeg, a GIF's fps: before reading anything
     elif frames is not None:
         raise InvalidParameterError("--frames limits an --export; the page plays every frame")
     with _progress("reading", None):

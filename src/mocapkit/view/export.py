@@ -96,6 +96,19 @@ def _check_numbers(fps: float, width_px: int, height_px: int, fmt: str) -> tuple
     return fps, sizes[0], sizes[1]
 
 
+def check_export(out, fps: float = 30.0, width_px: int = 960, height_px: int = 540, inputs=()) -> None:
+    """The checks :func:`export_scene` starts with (suffix, numbers, the output file, ffmpeg for an MP4, at
+    most 50 fps for a GIF), for a caller to make before it reads its inputs."""
+    out = Path(out)
+    fmt = _fmt_of(out)
+    fps, _, _ = _check_numbers(fps, width_px, height_px, fmt)
+    _check_out(out, inputs)
+    if fmt == "mp4":
+        _check_ffmpeg()
+    else:
+        gif_fps(fps)
+
+
 def output_times(timeline_times: np.ndarray, fps: float, frames: tuple[int, int] | None = None) -> np.ndarray:
     """The timeline time shown by each output frame: ``t[a] + k / fps`` up to ``t[b - 1]`` (``frames=(a, b)``:
     timeline frames ``a`` to ``b`` excluded, as ``--frames A:B``; the whole timeline by default)."""

@@ -26,11 +26,12 @@ def is_points_csv(path: Path) -> bool:
 
 class Points:
     """One sensor's compressed points: ticks (sample indices), unit quaternions, lost-packet marks and
-    the times of the ticks when the file has them (``times_of(ticks)`` otherwise from rate and t0)."""
+    the times of the ticks when the file has them (``times_of(ticks)`` otherwise from rate and t0);
+    ``samples``: the stream's sample count when the file says (a ``.mkp`` stream whose end arrived)."""
 
     def __init__(self, name: str, ticks, values, gap_before, t0: float | None, rate: float | None,
-                 times=None, bound_deg: float | None = None):
-        self.name, self.t0, self.rate, self.bound_deg = name, t0, rate, bound_deg
+                 times=None, bound_deg: float | None = None, samples: int | None = None):
+        self.name, self.t0, self.rate, self.bound_deg, self.samples = name, t0, rate, bound_deg, samples
         self.ticks = np.asarray(ticks, dtype=np.float64)
         self.values = np.asarray(values, dtype=np.float64)
         self.gap_before = np.asarray(gap_before, dtype=bool)
@@ -51,7 +52,7 @@ def read_packets(path: Path) -> tuple[dict[str, Points], list[str]]:
 
     pf = read_mkp(path)
     return {name: Points(name, s.ticks, s.values, s.gap_before, s.sensor.t0, s.sensor.rate,
-                         bound_deg=pf.header.max_angle_deg)
+                         bound_deg=pf.header.max_angle_deg, samples=s.samples)
             for name, s in pf.streams.items()}, pf.losses()
 
 
@@ -67,7 +68,19 @@ def read_points_csv(path: Path) -> tuple[dict[str, Points], list[str]]:
     if np.any(ticks != np.round(ticks)) or np.any(np.diff(ticks) <= 0):
         raise MocapFormatError(str(path), None, "the tick column must hold increasing whole sample indices")
     q = np.column_stack([col["w"], col["x"], col["y"], col["z"]])
+    bad = np.flatnonzero(np.abs(np.linalg.norm(q, axis=1) - 1.0) > 1e-3)
+    if len(bad):
+        k = int(bad[0])
+        raise MocapFormatError(str(path), _line_of_row(path, k), f"point {k + 1}: {q[k].tolist()} is not a unit "
+                               "quaternion (norm 1 within 1e-3)")
     return {path.stem: Points(path.stem, ticks, q, col["gap_before"] != 0, None, None, times=tab.times)}, []
+
+
+def _line_of_row(path: Path, k: int) -> int | None:
+    """The line of the ``k``-th data row (0-based) of a points CSV: the ``k + 1``-th non-blank line after the header."""
+    with open(path, encoding="utf-8", errors="replace") as fh:
+        rows = (i for i, line in enumerate(fh, start=1) if i > 1 and line.strip())
+        return next((i for j, i in enumerate(rows) if j == k), None)
 
 
 def decode(points: Points, n: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -81,7 +81,9 @@ def fitted_positions(mk: Markers, signals: list[dict], where: str) -> tuple[np.n
 
 
 def marker_panel(pid: str, path: Path, mk: Markers, fitted: np.ndarray | None, knots: list[dict]) -> dict:
-    return {"id": pid, "kind": "markers", "file": str(path), "name": path.name, "up": "z",
+    # OpenSim's TRC files are y-up; C3D, Qualisys and Vicon exports z-up
+    up = "y" if path.suffix.lower() == ".trc" else "z"
+    return {"id": pid, "kind": "markers", "file": str(path), "name": path.name, "up": up,
             "times": encode_array(mk.times, "float64"), "labels": list(mk.labels), "unit": mk.units,
             "positions": encode_array(mk.positions), "fitted": None if fitted is None else encode_array(fitted),
             "knots": knots}

@@ -14,7 +14,7 @@ from mocapkit.view import imu_panel as imu
 from mocapkit.view.arrays import decode_array, encode_array
 from mocapkit.view.marker_panel import fitted_positions, marker_panel, read_filter_json
 from mocapkit.view.skeleton_panel import (GLTF_SUFFIXES, joint_errors, load_skeleton, same_skeleton, skeleton_panel,
-                                          world_positions)
+                                          up_axis, world_positions)
 
 SCHEMA_VERSION = 1
 
@@ -69,12 +69,40 @@ def _place_segments(seg: dict, where: Path, timeline: np.ndarray) -> dict:
         raise InvalidParameterError(f"{where}: the segmentation is of {seg['n_frames']} frames "
                                     f"({Path(seg['file']).name or 'its file'}), the first file has {len(timeline)}: "
                                     "give the file that was segmented first")
+    n = len(timeline)
+    for c in seg["cuts"]:
+        if not 0 <= c["frame"] < n:
+            raise MocapFormatError(str(where), None, f"cut at frame {c['frame']}: outside frames 0..{n - 1}")
+    for s in seg["segments"]:
+        if not 0 <= s["frame0"] < s["frame1"] <= n:
+            raise MocapFormatError(str(where), None, f"segment of frames {s['frame0']}..{s['frame1']}: not a "
+                                   f"range within 0..{n} (frame1 excluded)")
     for c in seg["cuts"]:
         c["time_s"] = float(timeline[min(c["frame"], len(timeline) - 1)])
     for s in seg["segments"]:
         s["t0"] = float(timeline[min(s["frame0"], len(timeline) - 1)])
         s["t1"] = float(timeline[min(max(s["frame1"] - 1, 0), len(timeline) - 1)])
     return seg
+
+
+def _check_pairing(path: Path, opath: Path, name: str, pts, times: np.ndarray) -> None:
+    """Refuse compressed points that are not of this recording: a stream of another length (when the
+    file says), a tick beyond the last sample, or a first point whose time is not that sample's."""
+    n = len(times)
+    if pts.samples is not None and pts.samples != n:
+        raise InvalidParameterError(f"{path}: its stream {name} has {pts.samples} samples, {opath} has {n}: "
+                                    "not a compression of this file")
+    if len(pts.ticks) == 0:
+        return
+    if pts.ticks[-1] >= n:
+        raise InvalidParameterError(f"{path}: {name} reaches sample {int(pts.ticks[-1])}, {opath} has "
+                                    f"{n}: not a compression of this file")
+    k = int(pts.ticks[0])
+    t_file, t_orig = float(pts.own_times(pts.ticks[:1])[0]), float(times[k])
+    step = float(np.median(np.diff(times))) if n > 1 else 0.0
+    if abs(t_file - t_orig) > max(step / 2, 1e-6):
+        raise InvalidParameterError(f"{path}: {name}'s sample {k} is at {t_file:.6g} s, in {opath} at {t_orig:.6g} s: "
+                                    "not a compression of this file")
 
 
 class _Builder:
@@ -84,6 +112,8 @@ class _Builder:
         self.notes: list[str] = []
         self.skeletons: list[tuple[str, Path, object, float | None]] = []  # originals: id, path, motion, unit
         self.imus: list[tuple[str, Path, dict]] = []                        # originals: id, path, signals
+        self.paired: set[str] = set()                                        # IMU panels holding a decode
+        self.assumed: set[str] = set()                                       # skeletons of no known unit
 
     def pid(self) -> str:
         return f"p{len(self.panels)}"
@@ -97,17 +127,27 @@ class _Builder:
             if self.unit_cm is None and unit is None:
                 self.notes.append(f"{path.name}: no length unit in the file; 1 unit = 1 cm assumed (--unit-cm)")
             pid = self.pid()
+            if self.unit_cm is None and unit is None:
+                self.assumed.add(pid)
             self.skeletons.append((pid, path, motion, u))
             self.panels.append(skeleton_panel(pid, path, motion, world_positions(motion, u), bound=bound))
             return
         opid, opath, omotion, ou = orig
-        u = self.unit_cm or unit or ou
-        if self.unit_cm is None and unit is not None and unit != ou:
+        # one unit for both (their lengths are the same file units): the original's, unless it was assumed and
+        # the decode knows it; a bound follows the unit the decode is drawn in
+        if opid in self.assumed and unit is not None and unit != ou:
             self.notes = [n for n in self.notes if not n.startswith(f"{opath.name}: no length unit")]
             self.notes.append(f"{opath.name}: no length unit in the file; drawn in the unit of {path.name} "
                               f"({unit:g} cm), which it decodes")
             ou = unit
+            self.assumed.discard(opid)
             self._rescale(opid, omotion, ou)
+        elif unit is not None and unit != ou and self.unit_cm is None:
+            self.notes.append(f"{path.name}: its unit ({unit:g} cm) differs from {opath.name}'s ({ou:g} cm); both are "
+                              f"drawn in {opath.name}'s")
+        if bound is not None and unit is not None and unit != ou:
+            bound = bound / unit * ou
+        u = ou
         pos = world_positions(motion, u)
         err = None
         if motion.n_frames == omotion.n_frames and np.allclose(motion.times, omotion.times, atol=1e-6, rtol=0):
@@ -116,7 +156,7 @@ class _Builder:
             self.notes.append(f"{path.name}: {motion.n_frames} frames, {opath.name} {omotion.n_frames}: "
                               "no error per joint (the frames differ)")
         self.panels.append(skeleton_panel(self.pid(), path, motion, pos, role="decoded", decoded_from=opid,
-                                          error=err, bound=bound))
+                                          error=err, bound=bound, up=up_axis(omotion)))  # a clip keeps no axis
 
     def _rescale(self, pid: str, motion, unit: float) -> None:
         for k, p in enumerate(self.panels):
@@ -150,15 +190,22 @@ class _Builder:
                 raise InvalidParameterError(f"{path}: its sensors ({', '.join(names)}) are not those of {opath} "
                                             f"({', '.join(signals)}): give the original IMU file before it")
             panel = next(p for p in self.panels if p["id"] == opid)
+            if opid in self.paired:  # a second compression of the same file: a panel of its own
+                panel = {**panel, "id": self.pid(), "file": str(opath),
+                         "name": opath.name, "sensors": [imu.sensor_entry(n, s.times, s.values, None, [], None)
+                                                         for n, s in signals.items()]}
+                self.panels.append(panel)
+            self.paired.add(opid)
             by_name = {s["name"]: k for k, s in enumerate(panel["sensors"])}
+            for name in signals:
+                if name not in points:
+                    self.notes.append(f"{path.name}: no points of sensor {name} of {opath.name}; its decode is not drawn")
             for name, pts in points.items():
                 if name not in signals:
                     self.notes.append(f"{path.name}: sensor {name} is not in {opath.name}; not drawn")
                     continue
                 sig = signals[name]
-                if len(pts.ticks) and pts.ticks[-1] >= len(sig):
-                    raise InvalidParameterError(f"{path}: {name} reaches sample {int(pts.ticks[-1])}, {opath} has "
-                                                f"{len(sig)}: not a compression of this file")
+                _check_pairing(path, opath, name, pts, sig.times)
                 _, dec, kt = imu.decode(pts, len(sig))
                 entry = imu.sensor_entry(name, sig.times, sig.values, dec, sig.times[kt.astype(np.int64)],
                                          pts.bound_deg)
@@ -222,6 +269,9 @@ def build_scene(files, *, segments: Path | None = None, filter_json: Path | None
             raise InvalidParameterError(f"--segments {segments}: cuts are drawn on a skeleton's timeline; "
                                         f"the first file, {files[0]}, is not a skeleton")
         seg = _place_segments(read_segments(segments), segments, times)
+        if seg["file"] and Path(seg["file"]).name != files[0].name:
+            b.notes.append(f"{segments.name}: a segmentation of {Path(seg['file']).name}, drawn on {files[0].name} "
+                           "(same frame count)")
     return {"mocapkit_view": SCHEMA_VERSION, "title": " · ".join(p.name for p in files),
             "timeline": {"times": encode_array(times, "float64"), "frames": int(len(times)), "rate_hz": rate,
                          "source": first["id"]},

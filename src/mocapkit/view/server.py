@@ -78,20 +78,35 @@ class _Handler(BaseHTTPRequestHandler):
     server_version = "mocapkit-view"
     sys_version = ""
     protocol_version = "HTTP/1.1"
+    timeout = 60  # an idle keep-alive connection is closed after a minute
+
+    def _end_headers(self) -> None:
+        """The shared headers, then the end of the head. A request that came with a body (never read) ends the
+        connection, so its bytes are never taken for a next request."""
+        for k, v in self.server.answer_headers.items():
+            self.send_header(k, v)
+        if self.headers.get("Content-Length", "0").strip() not in ("", "0") or "Transfer-Encoding" in self.headers:
+            self.close_connection = True
+            self.send_header("Connection", "close")
+        self.end_headers()
 
     def _refuse(self, status: HTTPStatus, why: str) -> None:
         body = f"{status.value} {status.phrase}: {why}\n".encode()
         self.send_response(status)
         self.send_header("Content-Type", "text/plain; charset=utf-8")
         self.send_header("Content-Length", str(len(body)))
-        for k, v in self.server.answer_headers.items():
-            self.send_header(k, v)
-        self.end_headers()
+        self._end_headers()
         if self.command != "HEAD":
             self.wfile.write(body)
 
     def _serve(self, head: bool) -> None:
-        host = self.headers.get("Host", "")
+        if self.request_version == "HTTP/0.9":  # an answer without headers (no CSP): none at all
+            self.close_connection = True
+            return None
+        hosts = self.headers.get_all("Host") or [""]
+        if len(hosts) > 1:
+            return self._refuse(HTTPStatus.BAD_REQUEST, f"{len(hosts)} Host headers")
+        host = hosts[0]
         if host not in self.server.allowed_hosts:
             return self._refuse(HTTPStatus.FORBIDDEN, f"host {host!r} is not this server")
         target = self.path.split("?", 1)[0].split("#", 1)[0]
@@ -107,9 +122,7 @@ class _Handler(BaseHTTPRequestHandler):
         self.send_response(HTTPStatus.OK)
         self.send_header("Content-Type", ctype)
         self.send_header("Content-Length", str(len(data)))
-        for k, v in self.server.answer_headers.items():
-            self.send_header(k, v)
-        self.end_headers()
+        self._end_headers()
         if not head:
             self.wfile.write(data)
 

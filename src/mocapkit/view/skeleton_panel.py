@@ -44,6 +44,14 @@ def world_positions(motion: Motion, unit_cm: float) -> np.ndarray:
     return np.asarray(pos, dtype=np.float64) * unit_cm
 
 
+def up_axis(motion: Motion) -> str:
+    """The file's vertical axis: ``"z"`` when its reader says so (MVNX), else ``"y"`` (BVH, ASF/AMC, glTF)."""
+    for meta in (motion.skeleton.meta, getattr(motion, "meta", None) or {}):
+        if str(meta.get("up_axis", "")).lower() == "z":
+            return "z"
+    return "y"
+
+
 def same_skeleton(a: Motion, b: Motion) -> bool:
     """A decode of ``a``: the same joint names in the same order and the same parents."""
     return list(a.skeleton.names) == list(b.skeleton.names) and list(a.skeleton.parents) == list(b.skeleton.parents)
@@ -56,10 +64,10 @@ def joint_errors(original: np.ndarray, decoded: np.ndarray) -> np.ndarray:
 
 def skeleton_panel(pid: str, path: Path, motion: Motion, positions: np.ndarray, *, role: str = "original",
                    decoded_from: str | None = None, error: np.ndarray | None = None,
-                   bound: float | None = None) -> dict:
-    """The panel dict of docs/viewer.md (``kind: "skeleton"``)."""
+                   bound: float | None = None, up: str | None = None) -> dict:
+    """The panel dict of docs/viewer.md (``kind: "skeleton"``); ``up`` defaults to :func:`up_axis`."""
     return {
-        "id": pid, "kind": "skeleton", "file": str(path), "name": path.name, "up": "y",
+        "id": pid, "kind": "skeleton", "file": str(path), "name": path.name, "up": up or up_axis(motion),
         "times": encode_array(motion.times, "float64"),
         "joints": list(motion.skeleton.names), "parents": [int(p) for p in motion.skeleton.parents],
         "unit": "cm", "positions": encode_array(positions), "role": role, "decoded_from": decoded_from,
