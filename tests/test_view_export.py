@@ -15,10 +15,12 @@ import math
 import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from PIL import Image
 
 from mocapkit.errors import InvalidParameterError, MocapError, MocapFormatError
@@ -300,6 +302,144 @@ def test_background_reuse_draws_what_a_full_redraw_draws():
             assert np.array_equal(fast, full)
 
 
+# --- follow (travelling skeletons) and the markers' trail -------------------------------------------------
+
+def travelling_positions(times: np.ndarray, speed: float = 200.0) -> np.ndarray:
+    """The stick figure carried along x at ``speed`` cm/s on top of its walk."""
+    return skeleton_positions(times) + np.stack([speed * times, 0 * times, 0 * times], axis=1)[:, None, :]
+
+
+def test_body_measures_are_the_pages():
+    """Height (vertical extent), size (box diagonal) and the root's horizontal travel, as skeleton.js."""
+    from mocapkit.view.export_panels import body_measures
+
+    times = np.arange(41) / 20.0
+    pos = skeleton_positions(times)
+    m = body_measures(pos, PARENTS)
+    assert m["travel"] == pytest.approx(80.0)  # 40 cm/s for 2 s, along x only
+    assert m["height"] == pytest.approx(160.0)  # foot at z = 10, head at 170
+    boxes = [np.linalg.norm(p.max(0) - p.min(0)) for p in pos]
+    assert m["size"] == pytest.approx(sorted(boxes)[len(boxes) // 2])
+    assert body_measures(pos, PARENTS, 10, 21)["travel"] == pytest.approx(40.0 * 0.5)  # frames 10..20 only
+    # 80 cm < 1.5 x 160: not followed by default; carried 400 cm further it is, and follow= overrides either way
+    assert not SceneFigure(skeleton_scene(), W, H).following
+    assert SceneFigure(skeleton_scene(), W, H, follow=True).following
+    moving = skeleton_scene(positions=travelling_positions(times))
+    assert SceneFigure(moving, W, H).following
+    assert not SceneFigure(moving, W, H, follow=False).following
+    # the rule looks at the frames exported: the first 0.25 s travel 60 cm
+    assert not SceneFigure(moving, W, H, window=(0.0, 0.25)).following
+
+
+def test_a_followed_skeleton_stays_in_the_middle_of_its_axes_and_large(tmp_path):
+    times = np.arange(41) / 20.0
+    pos = travelling_positions(times)
+    scene = skeleton_scene(positions=pos)
+
+    def placement(follow):
+        """Per time: the pose centre's projected distance (px) to its axes' centre, and the pose's height (px)."""
+        view = SceneFigure(scene, W, H, follow=follow)
+        out = []
+        for k in (0, 10, 20, 30, 40):
+            view.show(times[k])
+            fast = view.render()
+            assert np.array_equal(fast, view.render_full())  # moving limits: still what a full redraw draws
+            for i, v in enumerate(view.views[:2]):
+                p = pos[k] + (np.c_[0 * pos[k, :, 0], decode_offsets(times)[k], 0 * pos[k, :, 0]] if i else 0)
+                x0, y0, x1, y1 = v.ax.bbox.extents
+                centre = projected(v.ax, ((p.min(0) + p.max(0)) / 2)[None])[0]
+                px = projected(v.ax, p)
+                out.append((np.hypot(*(centre - [(x0 + x1) / 2, H - (y0 + y1) / 2])) / (x1 - x0),
+                            np.ptp(px[:, 1]) / (y1 - y0)))
+                if i == 0:  # and it is drawn there: the head's pixel is the bone colour
+                    col, row = px[2].astype(int)
+                    assert np.abs(fast[row, col, :3].astype(int) - [0x1f, 0x5f, 0xa8]).max() <= 3
+        return np.array(out)
+
+    followed, still = placement(None), placement(False)
+    assert followed[:, 0].max() < 0.03  # within 3% of the axes' width of its centre, every frame
+    assert still[:, 0].max() > 0.25  # the whole-take limits: it walks across
+    assert followed[:, 1].min() > 0.5 and still[:, 1].max() < 0.3  # drawn large when followed
+    # the export writes the same pictures
+    export_scene(scene, tmp_path / "f.gif", fps=10, width_px=W, height_px=H)
+    view = SceneFigure(scene, W, H)
+    view.show(1.5)
+    assert np.abs(gif_frames(tmp_path / "f.gif")[0][15] - view.render()[..., :3].astype(int)).mean() < 3
+
+
+def trail_scene(n: int = 81, rate: float = 20.0) -> dict:
+    """One marker moving along x (100 mm/s, 4 s) and one still, its fit 80 mm above it, knots at 0.5 and 3.5 s."""
+    times = np.arange(n) / rate
+    pos = np.zeros((n, 2, 3))
+    pos[:, 0, 0] = 100 * times
+    pos[:, 1] = [0, 300, 300]
+    fitted = np.full_like(pos, np.nan)
+    fitted[:, 0] = pos[:, 0] + [0, 0, 80]
+    kt = [0.5, 3.5]
+    panel = {"id": "p0", "kind": "markers", "file": "m.tsv", "name": "m.tsv", "up": "z",
+             "times": encode_array(times, "float64"), "labels": ["a", "b"], "unit": "mm",
+             "positions": encode_array(pos), "fitted": encode_array(fitted),
+             "knots": [{"marker": 0, "times": kt, "positions": [(fitted[int(t * rate), 0]).tolist() for t in kt]}]}
+    return {"mocapkit_view": 1, "title": "trail",
+            "timeline": {"times": encode_array(times, "float64"), "frames": n, "rate_hz": rate, "source": "p0"},
+            "segments": None, "notes": [], "panels": [panel]}
+
+
+def bare(ax) -> np.ndarray:
+    """The figure of ``ax`` drawn without its lines and collections (restored after)."""
+    hidden = [*ax.lines, *ax.collections]
+    for a in hidden:
+        a.set_visible(False)
+    try:
+        FigureCanvasAgg.draw(ax.figure.canvas)
+        return np.asarray(ax.figure.canvas.buffer_rgba()).copy()
+    finally:
+        for a in hidden:
+            a.set_visible(True)
+
+
+def test_the_trail_holds_one_second_around_the_time_shown():
+    scene = trail_scene()
+    view = SceneFigure(scene, W, H)  # trail_s=1.0 by default, as the page
+    mv = view.views[0]
+    view.show(3.5)
+    x, _, _ = mv.traces[0].get_data_3d()
+    assert x.min() == pytest.approx(250) and x.max() == pytest.approx(400)  # samples at 2.5..4.0 s
+    (_, curve), = mv.curves
+    assert curve.get_data_3d()[0].min() == pytest.approx(250)
+    assert mv.knots.get_offsets().tolist() == [[350.0, 0.0]]  # the 3.5 s knot only
+    img = view.render()
+    assert np.array_equal(img, view.render_full())
+    empty = bare(mv.ax)
+
+    def drawn(x_mm, dz=0.0):
+        """Whether anything is drawn along the path from ``x_mm - 10`` to ``x_mm + 10`` (the fit is dashed)."""
+        pts = np.c_[np.linspace(x_mm - 10, x_mm + 10, 9), np.zeros(9), np.full(9, dz)]
+        cols, rows = projected(mv.ax, pts).astype(int).T
+        return (np.abs(img[rows, cols, :3].astype(int) - empty[rows, cols, :3].astype(int)).sum(axis=1) > 60).any()
+
+    assert drawn(300) and drawn(300, 80)  # the trajectory and the fit 0.5 s ago are drawn,
+    assert not drawn(50) and not drawn(50, 80)  # 3 s ago not
+    # the whole take (trail_s=None): drawn once into the background, there at every time
+    view = SceneFigure(scene, W, H, trail_s=None)
+    view.show(3.5)
+    img = view.render()
+    mv = view.views[0]
+    empty = bare(mv.ax)
+    assert drawn(50) and drawn(50, 80) and not np.array_equal(img, empty)
+    # the knot at 0.5 s is drawn then (an x), not in the window at 3.5 s
+    view = SceneFigure(scene, W, H)
+    view.show(0.5)
+    img = view.render()
+    mv = view.views[0]
+    col, row = projected(mv.ax, np.array([[50, 0, 80]]))[0].astype(int)
+    knot_px = img[row - 1:row + 2, col - 1:col + 2, :3].astype(int)
+    assert (np.abs(knot_px).sum(axis=2) < 60).any()  # black
+    view.show(3.5)
+    img = view.render()
+    assert not (np.abs(img[row - 1:row + 2, col - 1:col + 2, :3].astype(int)).sum(axis=2) < 60).any()
+
+
 def test_playhead_and_clock_follow_the_output_time():
     scene = skeleton_scene(n=41, rate=20.0)
     view = SceneFigure(scene, W, H)
@@ -400,6 +540,9 @@ def test_mp4_is_a_real_video(tmp_path):
     ("a.gif", {"fps": 0}, ["--fps"]),
     ("a.mp4", {"width_px": 321}, ["odd"]),
     ("a.gif", {"height_px": 10}, ["height"]),
+    ("a.gif", {"trail_s": 0}, ["trail", "positive"]),
+    ("a.gif", {"trail_s": float("nan")}, ["trail"]),
+    ("a.gif", {"follow": "yes"}, ["follow"]),
 ])
 def test_bad_requests_are_refused_before_any_work(tmp_path, name, kwargs, words):
     rec = Recorder()
@@ -568,3 +711,27 @@ def test_the_command_checks_the_export_before_reading_the_files(tmp_path):
             cli.main([str(a) for a in ["view", bad, *args]])
         assert e.value.code == 2 and words in err.getvalue() and "garbage.bvh" not in err.getvalue(), err.getvalue()
     assert sorted(os.listdir(tmp_path)) == ["garbage.bvh"]
+
+
+def test_the_command_passes_follow_and_trail_and_refuses_them_without_export(tmp_path):
+    bvh = Path(__file__).parent / "data" / "bvh" / "walk-meredith-60.bvh"
+    tsv = Path(__file__).parent / "data" / "markers" / "juggling-qualisys-300hz-first120.tsv"
+
+    def run(*args):
+        return subprocess.run([sys.executable, "-m", "mocapkit", "view", *map(str, args)], capture_output=True,
+                              text=True, timeout=300, check=False)
+
+    r = run(bvh, "--export", tmp_path / "f.gif", "--follow", "--fps", "10")
+    assert r.returncode == 0, r.stderr
+    r = run(tsv, "--export", tmp_path / "t.gif", "--trail", "all", "--fps", "10")
+    assert r.returncode == 0, r.stderr
+    from PIL import Image
+
+    with Image.open(tmp_path / "f.gif") as a, Image.open(tmp_path / "t.gif") as b:
+        assert a.n_frames >= 5 and b.n_frames >= 3
+    for bad in (["--trail", "0"], ["--trail", "soon"]):
+        r = run(tsv, "--export", tmp_path / "x.gif", *bad)
+        assert r.returncode == 2 and "--trail" in r.stderr
+    r = run(bvh, "--follow", "--no-browser")
+    assert r.returncode == 2 and "--export" in r.stderr
+    assert not (tmp_path / "x.gif").exists()

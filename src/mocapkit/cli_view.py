@@ -27,6 +27,18 @@ def _frame_range(text: Optional[str]) -> Optional[tuple[int, int]]:
     return lo, hi
 
 
+def _trail(text: str) -> Optional[float]:
+    if text.strip().lower() == "all":
+        return None
+    try:
+        v = float(text)
+    except ValueError:
+        v = float("nan")
+    if not (0 < v < 1e6):
+        raise InvalidParameterError(f"--trail {text!r}: a positive number of seconds, or 'all'")
+    return v
+
+
 def view(
     files: Annotated[list[Path], typer.Argument(
         metavar="FILE...", help="Skeletons (BVH, AMC, MVNX, .mkc, glTF/.glb), IMU files or sensor folders with "
@@ -46,6 +58,12 @@ def view(
         "--fps", help="--export: frames per second of the video.", callback=_within(1, 240))] = 30.0,
     frames: Annotated[Optional[str], typer.Option(
         "--frames", help="--export: frames A:B of the first file only (0-based, B excluded).")] = None,
+    follow: Annotated[Optional[bool], typer.Option(
+        "--follow/--no-follow", help="--export: keep the skeletons framed on their current pose (default: when a "
+                                     "root travels more than 1.5 body heights).", show_default=False)] = None,
+    trail: Annotated[str, typer.Option(
+        "--trail", help="--export: marker trajectories, fits and knots within this many seconds of the current "
+                        "time, or 'all'.")] = "1",
     asf: AsfOpt = None,
     rate: SegRateOpt = None,
     unit_cm: UnitCmOpt = None,
@@ -56,14 +74,15 @@ def view(
     from mocapkit.view.scene import build_scene
 
     span = _frame_range(frames)
+    trail_s = _trail(trail)
     if export is not None:
         from mocapkit.view.export import check_export
 
         inputs = [*files, *(p for p in (segments, filter_json, asf) if p is not None)]
         _check_output(export, inputs=inputs, option="--export")
         check_export(export, fps, inputs=inputs)  # suffix, ffmpeg, a GIF's fps: before reading anything
-    elif frames is not None:
-        raise InvalidParameterError("--frames limits an --export; the page plays every frame")
+    elif frames is not None or follow is not None or trail != "1":
+        raise InvalidParameterError("--frames, --follow and --trail shape an --export; the page has its own controls")
     with _progress("reading", None):
         scene = build_scene(files, segments=segments, filter_json=filter_json, asf=asf, unit_cm=unit_cm,
                             strict=strict, rate=rate)
@@ -72,7 +91,8 @@ def view(
     if export is not None:
         from mocapkit.view.export import export_scene
 
-        out = export_scene(scene, export, fps=fps, frames=span, progress=_progress)
+        out = export_scene(scene, export, fps=fps, frames=span, progress=_progress, follow=follow,
+                           trail_s=trail_s)
         console.print(f"{export}: {out['frames_written']} frames at {out['fps']:g} fps, {out['bytes']:,} bytes",
                       markup=False, highlight=False)
         return

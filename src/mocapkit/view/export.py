@@ -7,7 +7,10 @@ sensor a box turned by the original and by the decoded orientation, and the angl
 the keyframes, the bound and a playhead), the marker panels (markers now, trajectories, the fitted
 pieces and their knots) and, at the bottom, the timeline with the segments, the cuts and the playhead.
 The figure is built once; each output frame only moves the artists (``set_segments``, ``set_offsets``
-+ ``set_3d_properties``, ``set_xdata``) before the writer grabs it.
++ ``set_3d_properties``, ``set_xdata``) before the writer grabs it. As on the page, the skeletons' axes
+follow their poses (a cube of about one body, redrawn whole every frame) when a root travels more than
+1.5 body heights over the exported frames (``follow``), and the markers' trajectories, fitted curves and
+knots are drawn within 1 s of the time shown (``trail_s``).
 
 Output frame ``k`` shows timeline time ``t0 + k / fps`` (clipped to the last frame); a panel shows its
 last sample at or before that time. GIFs are written by matplotlib's ``PillowWriter``, MP4s by its
@@ -196,8 +199,24 @@ def _umask() -> int:
     return mask
 
 
+def _check_view(follow, trail_s) -> float | None:
+    if follow not in (None, True, False):
+        raise InvalidParameterError(f"export follow: expected True, False or None (automatic), got {follow!r}")
+    if trail_s is None:
+        return None
+    try:
+        trail_s = float(trail_s)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"export trail: expected seconds or None (all), got {trail_s!r}") from None
+    if not (math.isfinite(trail_s) and trail_s > 0):
+        raise InvalidParameterError(f"export trail: {trail_s:g} s; expected a positive number of seconds "
+                                    "(or None for the whole take)")
+    return trail_s
+
+
 def export_scene(scene: dict, out, *, fps: float = 30.0, width_px: int = 960, height_px: int = 540,
-                 frames: tuple[int, int] | None = None, progress=None, inputs=()) -> dict:
+                 frames: tuple[int, int] | None = None, progress=None, inputs=(), follow: bool | None = None,
+                 trail_s: float | None = 1.0) -> dict:
     """Draw ``scene`` (docs/viewer.md) into the video ``out`` (``.gif`` or ``.mp4``).
 
     Parameters
@@ -218,6 +237,13 @@ def export_scene(scene: dict, out, *, fps: float = 30.0, width_px: int = 960, he
     inputs
         The files the scene was read from: an output that is one of them (or inside an input folder) is
         refused before any work.
+    follow
+        Each skeleton's axes follow its current pose (a cube of about one body around it) instead of
+        holding the whole take; None (default) = as the page, when a skeleton's root travels more than 1.5
+        body heights over the exported frames.
+    trail_s
+        Marker trajectories, fitted curves and knots are drawn within this many seconds of the time shown
+        (default 1, as the page); None = over the whole take.
 
     Returns
     -------
@@ -227,7 +253,8 @@ def export_scene(scene: dict, out, *, fps: float = 30.0, width_px: int = 960, he
     Raises
     ------
     InvalidParameterError
-        An unknown suffix, a missing output folder, an empty or out-of-range frame range, a bad size or fps.
+        An unknown suffix, a missing output folder, an empty or out-of-range frame range, a bad size, fps,
+        follow or trail.
     MocapError
         ffmpeg missing (MP4; checked before any work) or failing; a malformed scene (MocapFormatError).
     """
@@ -236,6 +263,7 @@ def export_scene(scene: dict, out, *, fps: float = 30.0, width_px: int = 960, he
     out = Path(out)
     fmt = _fmt_of(out)
     fps, width_px, height_px = _check_numbers(fps, width_px, height_px, fmt)
+    trail_s = _check_view(follow, trail_s)
     target, old = _check_out(out, inputs)
     if fmt == "mp4":
         _check_ffmpeg()
@@ -252,7 +280,8 @@ def export_scene(scene: dict, out, *, fps: float = 30.0, width_px: int = 960, he
 
     import matplotlib as mpl
 
-    view = SceneFigure(scene, width_px, height_px, window=(float(times[0]), float(times[-1])))
+    view = SceneFigure(scene, width_px, height_px, window=(float(times[0]), float(times[-1])), follow=follow,
+                       trail_s=trail_s)
     writer = _gif_writer(fps, GifPalette(view, times)) if fmt == "gif" else _mp4_writer(fps)
     folder, base = os.path.split(target)
     fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{out.suffix.lower()}", dir=folder or ".")

@@ -15,8 +15,10 @@ from mocapkit.view.export_panels import (
     TimelineView,
     _array,
     _field,
+    _index_at,
     _limits,
     _times,
+    body_measures,
     z_up,
 )
 
@@ -25,13 +27,25 @@ DPI = 64
 
 
 _WEIGHTS = {"skeleton": 1.0, "markers": 1.0, "imu": 1.5}
+FOLLOW_TRAVEL = 1.5
+"""Follow by default when a skeleton's root travels more than this many body heights (static/viewer.js)."""
+FOLLOW_HALF = 0.45
+"""A followed skeleton's axes are a cube of this many body sizes (a frame's joint-box diagonal) each side
+of its pose's centre."""
 
 
 class SceneFigure:
     """The whole scene on one Agg figure of ``width_px x height_px`` pixels; ``show(t)`` moves every
-    panel to timeline time ``t``. ``views`` lists the panel views in the scene's order."""
+    panel to timeline time ``t``. ``views`` lists the panel views in the scene's order.
 
-    def __init__(self, scene: dict, width_px: int, height_px: int, window: tuple[float, float] | None = None):
+    ``window`` is the timeline time span exported. ``follow``: each skeleton's axes follow its pose (a cube
+    of about one body around the pose's centre, redrawn whole every frame) instead of the whole-take
+    limits; None = as the page, when a skeleton's root travels more than ``FOLLOW_TRAVEL`` body heights
+    over the window. ``trail_s``: marker trajectories, fitted curves and knots are drawn within this many
+    seconds of the time shown; None = the whole take. ``following`` says whether the skeletons follow."""
+
+    def __init__(self, scene: dict, width_px: int, height_px: int, window: tuple[float, float] | None = None,
+                 follow: bool | None = None, trail_s: float | None = 1.0):
         from matplotlib.figure import Figure
 
         if not isinstance(scene, dict) or scene.get("mocapkit_view") != 1:
@@ -61,6 +75,8 @@ class SceneFigure:
                 raise MocapFormatError("scene", None, f"panels[{i}]: unknown kind {kind!r}")
             kinds.append(kind)
         sk_lim = self._skeleton_limits(panels)
+        half = self._follow_half(panels, window, follow)
+        self.following = half is not None
         y0, y1 = 0.20, 0.90
         total = sum(_WEIGHTS[k] for k in kinds) or 1.0
         x = 0.01
@@ -69,9 +85,9 @@ class SceneFigure:
             w = 0.98 * _WEIGHTS[kind] / total
             where = f"panel {p.get('id', i)}"
             if kind == "skeleton":
-                self.views.append(SkeletonView(self.fig, [x, y0, w, y1 - y0], p, sk_lim, fs, where))
+                self.views.append(SkeletonView(self.fig, [x, y0, w, y1 - y0], p, sk_lim, fs, where, half))
             elif kind == "markers":
-                self.views.append(MarkerView(self.fig, [x, y0, w, y1 - y0], p, fs, where))
+                self.views.append(MarkerView(self.fig, [x, y0, w, y1 - y0], p, fs, where, trail_s))
             else:
                 self.views.extend(self._imu(p, x, w, y0, y1, window, fs, where))
             x += w
@@ -80,9 +96,35 @@ class SceneFigure:
         self.moving = [a for v in self.views for a in v.artists()]  # left out of the background
         for k, a in enumerate(self.moving):  # above everything static, in this order (original, then decode)
             a.set_zorder(10 + k)
+        # axes whose limits move (followed skeletons): left out of the background, drawn whole every frame
+        self.redrawn = [v.ax for v in self.views if getattr(v, "follow_half", None) is not None]
+        self._drawn = [(ax, ax in self.redrawn, [a for a in self.moving if a.axes is ax]) for ax in self.fig.axes]
+        assert sum(len(m) for _, _, m in self._drawn) == len(self.moving), "a moving artist outside the axes"
         for ax in self.fig.axes:
             if hasattr(ax, "computed_zorder"):
                 ax.computed_zorder = False  # no depth sorting: the same order in a full redraw as in frame()
+
+    @staticmethod
+    def _follow_half(panels: list, window: tuple[float, float], follow: bool | None) -> float | None:
+        """Half the side of a followed skeleton's axes cube, the same for all (None: no following)."""
+        if follow is False:
+            return None
+        measures = []
+        for i, p in enumerate(panels):
+            if p.get("kind") == "skeleton":
+                where = f"panel {p.get('id', i)}"
+                times = _times(p, where)
+                pos = z_up(_array(p, "positions", where, (None, 3)), _field(p, "up", where))
+                parents = [int(j) for j in _field(p, "parents", where)]
+                first, last = _index_at(times, window[0]), _index_at(times, window[1])
+                measures.append(body_measures(pos, parents, first, last + 1))
+        if not measures:
+            return None
+        if follow is None and not any(m["height"] > 0 and m["travel"] > FOLLOW_TRAVEL * m["height"]
+                                      for m in measures):
+            return None
+        size = max(max(m["size"], m["height"]) for m in measures)
+        return FOLLOW_HALF * size if size > 0 else 1.0
 
     @staticmethod
     def _skeleton_limits(panels: list) -> np.ndarray:
@@ -116,26 +158,32 @@ class SceneFigure:
 
     def frame(self) -> memoryview:
         """The figure now, as the canvas's RGBA buffer: the static background (drawn once: panes, grids,
-        ticks, titles, colour bars, trajectories, segments) restored, then only the moving artists drawn."""
+        ticks, titles, colour bars, trajectories, segments) restored, then, axes by axes in the figure's
+        order, the moving artists drawn, or the whole axes when its limits move (followed skeletons)."""
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
         canvas = self.fig.canvas
         if self._background is None:
-            for a in self.moving:
+            hidden = [*self.moving, *self.redrawn]
+            for a in hidden:
                 a.set_visible(False)
             try:
                 FigureCanvasAgg.draw(canvas)  # also sets each 3-D axes' projection, used below
             finally:
-                for a in self.moving:
+                for a in hidden:
                     a.set_visible(True)
             self._background = canvas.copy_from_bbox(self.fig.bbox)
         else:
             canvas.restore_region(self._background)
         renderer = canvas.get_renderer()
-        for a in self.moving:
-            if hasattr(a, "do_3d_projection"):
-                a.do_3d_projection()
-            a.draw(renderer)
+        for ax, whole, moving in self._drawn:
+            if whole:
+                ax.draw(renderer)
+                continue
+            for a in moving:
+                if hasattr(a, "do_3d_projection"):
+                    a.do_3d_projection()
+                a.draw(renderer)
         return renderer.buffer_rgba()
 
     def render(self) -> np.ndarray:

@@ -105,10 +105,31 @@ def _style_3d(ax, lim: np.ndarray, fs: float, unit: str) -> None:
     ax.set_xlabel(unit, fontsize=fs * 0.7, labelpad=-6)
 
 
+def _nice_step(x: float) -> float:
+    """1, 2 or 5 times a power of ten, the nearest to ``x`` (> 0) in ratio."""
+    p = 10.0 ** math.floor(math.log10(x))
+    return min((m * p for m in (1, 2, 5, 10)), key=lambda v: abs(math.log(v / x)))
+
+
+def _follow_style(ax, lim: np.ndarray, fs: float) -> float:
+    """Style a followed skeleton's axes (a cube moving with the pose): panes and a grid of fixed world
+    cells that scroll as the body travels, no tick numbers (they would change every frame and cost a text
+    layout each). Returns the grid cell."""
+    from matplotlib.ticker import MultipleLocator, NullFormatter
+
+    _style_3d(ax, lim, fs, "")
+    cell = _nice_step(float(lim[0, 1] - lim[0, 0]) / 3)
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MultipleLocator(cell))
+        axis.set_major_formatter(NullFormatter())
+    return cell
+
+
 class SkeletonView:
     """One skeleton panel: a Line3DCollection of the bones and a scatter of the joints."""
 
-    def __init__(self, fig, rect, panel: dict, lim: np.ndarray, fs: float, where: str):
+    def __init__(self, fig, rect, panel: dict, lim: np.ndarray, fs: float, where: str,
+                 follow_half: float | None = None):
         from matplotlib import colormaps
         from matplotlib.colors import Normalize
         from mpl_toolkits.mplot3d.art3d import Line3DCollection
@@ -123,6 +144,9 @@ class SkeletonView:
         parents = [int(p) for p in _field(panel, "parents", where)]
         if len(parents) != J or any(not -1 <= p < J for p in parents):
             raise MocapFormatError("scene", None, f"{where}.parents: {len(parents)} parents for {J} joints")
+        self.parents = parents
+        self.follow_half = follow_half
+        self.centre = None  # the followed pose's centre now (follow only)
         self.bones = np.array([(j, p) for j, p in enumerate(parents) if p >= 0], dtype=np.int64).reshape(-1, 2)
         self.error = _array(panel, "error", where, (J,), optional=True)
         if self.error is not None and self.error.shape[0] != n:
@@ -133,11 +157,21 @@ class SkeletonView:
 
         ax = fig.add_axes([rect[0], rect[1], rect[2] * 0.8, rect[3]],
                           projection="3d", facecolor=BG)
-        _style_3d(ax, lim, fs, _field(panel, "unit", where))
+        unit = _field(panel, "unit", where)
         title = f"{panel.get('name', '')} — {role}"
         if max_error is not None:
             title += f"\nmax error {float(max_error):.3g} cm" + (f" (bound {float(bound):.3g})" if bound is not None else "")
-        ax.set_title(title, fontsize=fs * 0.85, pad=0)
+        if follow_half is None:
+            _style_3d(ax, lim, fs, unit)
+            ax.set_title(title, fontsize=fs * 0.85, pad=0)
+        else:
+            self.centre = _pose_centre(self.pos[0])
+            if self.centre is None:
+                self.centre = np.zeros(3)
+            cell = _follow_style(ax, self.centre[:, None] + [-follow_half, follow_half], fs)
+            # the title in the figure, not the axes, so that it stays in the background (drawn once)
+            fig.text(rect[0] + rect[2] * 0.4, rect[1] + rect[3], f"{title}\nfollowed; grid {cell:g} {unit}",
+                     fontsize=fs * 0.85, ha="center", va="bottom")
         bone_colour = DECODED if role == "decoded" else ORIGINAL
         self.lines = Line3DCollection(self._segments(0), colors=bone_colour, linewidths=max(fs / 6, 1.2))
         ax.add_collection3d(self.lines)
@@ -172,6 +206,46 @@ class SkeletonView:
         self.joints.set_3d_properties(p[:, 2], "z")
         if self.error is not None:
             self.joints.set_array(self.error[i])
+        if self.follow_half is not None:
+            centre = _pose_centre(p)
+            if centre is not None:  # no joint drawn: the limits stay where they were
+                self.centre = centre
+            h = self.follow_half
+            self.ax.set_xlim(self.centre[0] - h, self.centre[0] + h)
+            self.ax.set_ylim(self.centre[1] - h, self.centre[1] + h)
+            self.ax.set_zlim(self.centre[2] - h, self.centre[2] + h)
+
+
+def _pose_centre(p: np.ndarray) -> np.ndarray | None:
+    """Centre of the box of the finite joints ``(J, 3)`` (None if none is finite)."""
+    p = p[np.all(np.isfinite(p), axis=1)]
+    return None if len(p) == 0 else (p.min(axis=0) + p.max(axis=0)) / 2
+
+
+def body_measures(pos: np.ndarray, parents: list[int], first: int = 0, stop: int | None = None) -> dict:
+    """The page's sizes of a skeleton (static/skeleton.js ``measure``) over samples ``first:stop`` of its
+    z-up positions ``(n, J, 3)``: ``height``, the median over frames (every ``n // 500``-th) of the joints'
+    vertical extent; ``size``, the median diagonal of a frame's box of joints; ``travel``, the diagonal
+    of the horizontal box of the root joint's path (every frame). Medians are the upper middle value."""
+    pos = pos[first:stop]
+    n = len(pos)
+    step = max(1, n // 500)
+    heights, sizes = [], []
+    for p in pos[::step]:
+        p = p[np.all(np.isfinite(p), axis=1)]
+        if len(p):
+            lo, hi = p.min(axis=0), p.max(axis=0)
+            heights.append(hi[2] - lo[2])
+            sizes.append(float(np.linalg.norm(hi - lo)))
+
+    def median(v):
+        return float(sorted(v)[len(v) >> 1]) if v else 0.0
+
+    root = parents.index(-1) if -1 in parents else 0
+    path = pos[:, root, :2] if n else np.zeros((0, 2))
+    path = path[np.all(np.isfinite(path), axis=1)]
+    travel = float(np.hypot(*(path.max(axis=0) - path.min(axis=0)))) if len(path) else 0.0
+    return {"height": median(heights), "size": median(sizes), "travel": travel}
 
 
 _BOX = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float) * [1.0, 0.6, 0.25]
@@ -265,9 +339,11 @@ class SensorView:
 
 
 class MarkerView:
-    """One marker panel: trajectories, fitted curves and knots (static), the markers now (moving)."""
+    """One marker panel: the markers now, their trajectories, fitted curves and knots; those three within
+    ``trail_s`` seconds of the time shown (moving artists, as the page's trail), or over the whole take
+    when ``trail_s`` is None (static, drawn once)."""
 
-    def __init__(self, fig, rect, panel: dict, fs: float, where: str):
+    def __init__(self, fig, rect, panel: dict, fs: float, where: str, trail_s: float | None = None):
         self.times = _times(panel, where)
         n = len(self.times)
         up = _field(panel, "up", where)
@@ -280,39 +356,95 @@ class MarkerView:
         if fitted is not None and fitted.shape[0] != n:
             raise MocapFormatError("scene", None, f"{where}.fitted: {fitted.shape[0]} frames for {n} times")
         fitted = None if fitted is None else z_up(fitted, up)
-        knots = []
+        knots, knot_times = [], []
         for k, kn in enumerate(panel.get("knots") or []):
-            pts = np.asarray(_field(kn, "positions", f"{where}.knots[{k}]"), dtype=float).reshape(-1, 3)
+            w = f"{where}.knots[{k}]"
+            pts = np.asarray(_field(kn, "positions", w), dtype=float).reshape(-1, 3)
+            kt = np.asarray(_field(kn, "times", w), dtype=float).reshape(-1)
+            if len(kt) != len(pts):
+                raise MocapFormatError("scene", None, f"{w}: {len(kt)} times for {len(pts)} positions")
             knots.append(z_up(pts, up))
+            knot_times.append(kt)
         knots = np.concatenate(knots) if knots else np.zeros((0, 3))
+        knot_times = np.concatenate(knot_times) if knot_times else np.zeros(0)
+        order = np.argsort(knot_times, kind="stable")
+        self.knot_pos, self.knot_times = knots[order], knot_times[order]
         lim = _limits(np.concatenate([self.pos.reshape(-1, 3), knots]))
         if lim is None:
             lim = np.array([[-1.0, 1.0]] * 3)
         ax = fig.add_axes(rect, projection="3d", facecolor=BG)
         _style_3d(ax, lim, fs, _field(panel, "unit", where))
         ax.set_title(f"{panel.get('name', '')} — {M} markers", fontsize=fs * 0.85, pad=0)
-        step = max(1, math.ceil(n / MAX_TRACE_POINTS))
-        for m in range(M):
-            tr = self.pos[::step, m]
-            ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], color="0.55", lw=max(fs / 16, 0.5))
-            if fitted is not None and np.any(np.isfinite(fitted[:, m])):
-                fc = fitted[::step, m]
-                ax.plot(fc[:, 0], fc[:, 1], fc[:, 2], color=DECODED, lw=max(fs / 12, 0.8), ls="--")
-        if len(knots):
-            ax.scatter(knots[:, 0], knots[:, 1], knots[:, 2], marker="x", color="k", s=(fs * 0.5) ** 2,
-                       depthshade=False)
+        self.trail_s = trail_s
+        self.fitted = fitted
+        fit_marker = [fitted is not None and bool(np.any(np.isfinite(fitted[:, m]))) for m in range(M)]
+        trace = {"color": "0.55", "lw": max(fs / 16, 0.5)}
+        curve = {"color": DECODED, "lw": max(fs / 12, 0.8), "ls": "--"}
+        knot_style = {"marker": "x", "color": "k", "s": (fs * 0.5) ** 2, "depthshade": False}
+        self.traces, self.curves, self.knots = [], [], None
+        if trail_s is None:  # the whole take, drawn once into the background
+            step = max(1, math.ceil(n / MAX_TRACE_POINTS))
+            for m in range(M):
+                tr = self.pos[::step, m]
+                ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], **trace)
+                if fit_marker[m]:
+                    fc = fitted[::step, m]
+                    ax.plot(fc[:, 0], fc[:, 1], fc[:, 2], **curve)
+            if len(knots):
+                ax.scatter(knots[:, 0], knots[:, 1], knots[:, 2], **knot_style)
+        else:
+            # a sample step fixed for the take (the most samples any window holds), on fixed sample indices
+            most = int((np.searchsorted(self.times, self.times + 2 * trail_s, side="right") - np.arange(n)).max())
+            self.step = max(1, math.ceil(most / MAX_TRACE_POINTS))
+            self.traces = [ax.plot([], [], [], **trace)[0] for m in range(M)]
+            self.curves = [(m, ax.plot([], [], [], **curve)[0]) for m in range(M) if fit_marker[m]]
+            if len(knots):
+                self.knots = ax.scatter(knots[:, 0], knots[:, 1], knots[:, 2], **knot_style)
         p0 = self.pos[0]
         self.markers = ax.scatter(p0[:, 0], p0[:, 1], p0[:, 2], color=ORIGINAL, s=(fs * 0.55) ** 2,
                                   depthshade=False, edgecolors="none")
         self.ax = ax
 
     def artists(self) -> list:
-        return [self.markers]
+        knots = [] if self.knots is None else [self.knots]
+        return [*self.traces, *(c for _, c in self.curves), *knots, self.markers]
+
+    def trail_range(self, t: float) -> tuple[int, int]:
+        """Samples ``[a, b)`` of the trail at time ``t``: those within ``trail_s`` of it (all for None)."""
+        if self.trail_s is None:
+            return 0, len(self.times)
+        return (int(np.searchsorted(self.times, t - self.trail_s, side="left")),
+                int(np.searchsorted(self.times, t + self.trail_s, side="right")))
 
     def show(self, t: float) -> None:
         p = self.pos[_index_at(self.times, t)]
         self.markers.set_offsets(p[:, :2])
         self.markers.set_3d_properties(p[:, 2], "z")
+        if self.trail_s is None:
+            return
+        a, b = self.trail_range(t)
+        s = self.step
+        idx = np.arange(-(-a // s) * s, b, s)  # multiples of the step in [a, b), with the window's ends
+        if b > a:
+            idx = np.unique(np.concatenate([[a], idx, [b - 1]]))
+        for m, line in enumerate(self.traces):
+            _set_polyline(line, self.pos[idx, m])
+        for m, line in self.curves:
+            _set_polyline(line, self.fitted[idx, m])
+        if self.knots is not None:
+            k0 = int(np.searchsorted(self.knot_times, t - self.trail_s, side="left"))
+            k1 = int(np.searchsorted(self.knot_times, t + self.trail_s, side="right"))
+            q = self.knot_pos[k0:k1]
+            self.knots.set_offsets(q[:, :2])
+            self.knots.set_3d_properties(q[:, 2], "z")
+
+
+def _set_polyline(line, q: np.ndarray) -> None:
+    """Give a 3-D line the points ``q`` (k, 3), NaN breaking it; leading and trailing missing points are
+    left out (they draw nothing, and matplotlib looks for the first finite value one point at a time)."""
+    ok = np.nonzero(np.all(np.isfinite(q), axis=1))[0]
+    q = q[ok[0]:ok[-1] + 1] if len(ok) else q[:0]
+    line.set_data_3d(q[:, 0], q[:, 1], q[:, 2])
 
 
 class TimelineView:
