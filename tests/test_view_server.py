@@ -94,7 +94,7 @@ def test_serves_the_page_assets_scene_and_named_files(server):
     "/static/vendor/three/LICENSE/", "/static/vendor/three/LICENSE%00", "/scene.json/..", "/proc/self/environ",
 ])
 def test_refuses_everything_not_in_the_table(server, target):
-    srv, named, tmp = server
+    srv, named, _tmp = server
     status, body = _raw(srv, target)
     assert status == 404, (target, status)
     assert b"not named" not in body and b"root:" not in body and named.read_bytes()[:20] not in body
@@ -153,7 +153,7 @@ def test_the_command_serves_and_stops_on_sigint_and_sigterm(tmp_path):
             conn.close()
             assert scene["timeline"]["frames"] == 60 and [q["role"] for q in scene["panels"]] == ["original", "decoded"]
             p.send_signal(sig)
-            out, errs = p.communicate(timeout=20)
+            _out, errs = p.communicate(timeout=20)
         finally:
             if p.poll() is None:
                 p.kill()
@@ -165,7 +165,7 @@ def test_the_command_serves_and_stops_on_sigint_and_sigterm(tmp_path):
 def test_the_command_refuses_bad_options_before_serving(tmp_path):
     def run(*args):
         return subprocess.run([sys.executable, "-m", "mocapkit", "view", *args], capture_output=True, text=True,
-                              timeout=60)
+                              timeout=60, check=False)
 
     r = run(str(BVH), "--port", "70000", "--no-browser")
     assert r.returncode == 2 and "--port" in r.stderr

@@ -6,15 +6,25 @@ from __future__ import annotations
 import signal
 import sys
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
-from mocapkit.cli_options import AsfOpt, SegRateOpt, StrictOpt, UnitCmOpt, _check_output, _progress, _within, console, err
+from mocapkit.cli_options import (
+    AsfOpt,
+    SegRateOpt,
+    StrictOpt,
+    UnitCmOpt,
+    _check_output,
+    _progress,
+    _within,
+    console,
+    err,
+)
 from mocapkit.errors import InvalidParameterError
 
 
-def _frame_range(text: Optional[str]) -> Optional[tuple[int, int]]:
+def _frame_range(text: str | None) -> tuple[int, int] | None:
     if text is None:
         return None
     a, sep, b = text.partition(":")
@@ -27,7 +37,7 @@ def _frame_range(text: Optional[str]) -> Optional[tuple[int, int]]:
     return lo, hi
 
 
-def _trail(text: str) -> Optional[float]:
+def _trail(text: str) -> float | None:
     if text.strip().lower() == "all":
         return None
     try:
@@ -45,20 +55,20 @@ def view(
                                 "their .mkp or points CSV, marker files (C3D, TSV, TRC). A skeleton with the "
                                 "joints of an earlier one is drawn as its decode; a .mkp after an IMU file "
                                 "as its compression.")],
-    segments: Annotated[Optional[Path], typer.Option(
+    segments: Annotated[Path | None, typer.Option(
         "--segments", help="Cuts and labels from `mocapkit segment FILE --json` (of the first file).")] = None,
-    filter_json: Annotated[Optional[Path], typer.Option(
+    filter_json: Annotated[Path | None, typer.Option(
         "--filter", help="Pieces and knots from `mocapkit filter MARKERS --json` (of the marker file).")] = None,
     port: Annotated[int, typer.Option(
         "--port", help="Port on 127.0.0.1 (default 0: a free one, printed).", callback=_within(0, 65535))] = 0,
     no_browser: Annotated[bool, typer.Option("--no-browser", help="Do not open a browser; just serve.")] = False,
-    export: Annotated[Optional[Path], typer.Option(
+    export: Annotated[Path | None, typer.Option(
         "--export", help="Render the view to OUT.gif or OUT.mp4 (ffmpeg) instead of serving it.")] = None,
     fps: Annotated[float, typer.Option(
         "--fps", help="--export: frames per second of the video.", callback=_within(1, 240))] = 30.0,
-    frames: Annotated[Optional[str], typer.Option(
+    frames: Annotated[str | None, typer.Option(
         "--frames", help="--export: frames A:B of the first file only (0-based, B excluded).")] = None,
-    follow: Annotated[Optional[bool], typer.Option(
+    follow: Annotated[bool | None, typer.Option(
         "--follow/--no-follow", help="--export: keep the skeletons framed on their current pose (default: when a "
                                      "root travels more than 1.5 body heights).", show_default=False)] = None,
     trail: Annotated[str, typer.Option(

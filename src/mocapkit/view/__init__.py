@@ -5,4 +5,4 @@ from mocapkit.view.arrays import decode_array, encode_array
 from mocapkit.view.scene import build_scene
 from mocapkit.view.server import ViewServer
 
-__all__ = ["build_scene", "decode_array", "encode_array", "ViewServer"]
+__all__ = ["ViewServer", "build_scene", "decode_array", "encode_array"]

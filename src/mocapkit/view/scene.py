@@ -13,8 +13,15 @@ from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.view import imu_panel as imu
 from mocapkit.view.arrays import decode_array, encode_array
 from mocapkit.view.marker_panel import fitted_positions, marker_panel, read_filter_json
-from mocapkit.view.skeleton_panel import (GLTF_SUFFIXES, joint_errors, load_skeleton, same_skeleton, skeleton_panel,
-                                          up_axis, world_positions)
+from mocapkit.view.skeleton_panel import (
+    GLTF_SUFFIXES,
+    joint_errors,
+    load_skeleton,
+    same_skeleton,
+    skeleton_panel,
+    up_axis,
+    world_positions,
+)
 
 SCHEMA_VERSION = 1
 
@@ -273,6 +280,6 @@ def build_scene(files, *, segments: Path | None = None, filter_json: Path | None
             b.notes.append(f"{segments.name}: a segmentation of {Path(seg['file']).name}, drawn on {files[0].name} "
                            "(same frame count)")
     return {"mocapkit_view": SCHEMA_VERSION, "title": " · ".join(p.name for p in files),
-            "timeline": {"times": encode_array(times, "float64"), "frames": int(len(times)), "rate_hz": rate,
+            "timeline": {"times": encode_array(times, "float64"), "frames": len(times), "rate_hz": rate,
                          "source": first["id"]},
             "segments": seg, "notes": b.notes, "panels": b.panels}
