@@ -309,3 +309,47 @@ def test_a_segmentation_of_another_file_name_gets_a_note(tmp_path):
     notes = build_scene([other], segments=seg, asf=asf, rate=15)["notes"]
     assert any("a segmentation of 86_01_15hz_first1600.amc" in n for n in notes)
     assert not any("a segmentation of" in n for n in build_scene([amc], segments=seg, asf=asf, rate=15)["notes"])
+
+
+def test_compressed_files_pair_whatever_the_order(tmp_path):
+    scene = build_scene([CLIP, BVH])
+    assert [(p["name"], p["role"]) for p in scene["panels"]] == [("walk-meredith-60.bvh", "original"),
+                                                                 ("walk-meredith-60.mkc", "decoded")]
+    assert scene["timeline"]["frames"] == 60 and scene["timeline"]["source"] == scene["panels"][0]["id"]
+    mkp = tmp_path / "n.mkp"
+    mocapkit("compress", NGIMU, "--max-angle", "2", "-o", mkp)
+    (panel,) = build_scene([mkp, NGIMU])["panels"]
+    assert panel["sensors"][0]["decoded"] is not None and panel["sensors"][0]["original"] is not None
+
+
+def test_a_clip_of_another_take_gets_a_note():
+    scene = build_scene([FREYA, CLIP])
+    assert [p["role"] for p in scene["panels"]] == ["original", "original"]
+    assert any("walk-meredith-60.mkc: a compressed clip whose joints are those of no other file" in n
+               for n in scene["notes"])
+    assert not any("compressed clip" in n for n in build_scene([CLIP])["notes"])
+
+
+def test_a_c3d_says_which_axis_is_up(tmp_path):
+    """POINT:Y_SCREEN (the axis drawn upward) sets the panel's vertical axis; z when the file does not say."""
+    ezc3d = pytest.importorskip("ezc3d")
+    from mocapkit.io.loaders import load_markers
+
+    for screen, up in (("+Y", "y"), ("+Z", "z"), (None, "z")):
+        c = ezc3d.c3d()
+        c["parameters"]["POINT"]["RATE"]["value"] = [100.0]
+        c["parameters"]["POINT"]["LABELS"]["value"] = ["A", "B"]
+        if screen is not None:
+            c.add_parameter("POINT", "Y_SCREEN", [screen])
+        pts = np.ones((4, 2, 5))
+        pts[:3] = np.arange(30, dtype=float).reshape(3, 2, 5)
+        c["data"]["points"] = pts
+        f = tmp_path / f"up{up}{screen is None}.c3d"
+        c.write(str(f))
+        assert load_markers(f).meta.get("up_axis") == screen
+        assert build_scene([f])["panels"][0]["up"] == up
+
+
+def test_the_shared_bts_c3d_stands_y_up(shared_data):
+    assert build_scene([shared_data / "c3d" / "BTS.c3d"])["panels"][0]["up"] == "y"
+    assert build_scene([shared_data / "c3d" / "Vicon.c3d"])["panels"][0]["up"] == "z"

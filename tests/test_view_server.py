@@ -231,3 +231,14 @@ def test_two_host_headers_and_http09_are_refused(server):
         assert out.startswith(b"HTTP/1.1 400 ") and b"mocapkit_view" not in out, out
     # HTTP/0.9 has no answer headers (no Content-Security-Policy, no nosniff): nothing is sent
     assert _exchange(srv, b"GET /scene.json\r\n" + ours + b"\r\n") == b""
+
+
+def test_a_busy_port_is_found_before_the_files_are_read(tmp_path):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT\n")  # would fail to read
+    with socket.socket() as s:
+        s.bind((HOST, 0))
+        s.listen()
+        r = subprocess.run([sys.executable, "-m", "mocapkit", "view", str(bad), "--port", str(s.getsockname()[1]),
+                            "--no-browser"], capture_output=True, text=True, timeout=60, check=False)
+    assert r.returncode == 2 and "cannot listen on 127.0.0.1" in r.stderr and "bad.bvh" not in r.stderr

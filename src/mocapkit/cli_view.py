@@ -93,12 +93,22 @@ def view(
         check_export(export, fps, inputs=inputs)  # suffix, ffmpeg, a GIF's fps: before reading anything
     elif frames is not None or follow is not None or trail != "1":
         raise InvalidParameterError("--frames, --follow and --trail shape an --export; the page has its own controls")
-    with _progress("reading", None):
-        scene = build_scene(files, segments=segments, filter_json=filter_json, asf=asf, unit_cm=unit_cm,
-                            strict=strict, rate=rate)
+    server = None
+    if export is None:  # take the port first: a busy one is an error before the files are read
+        from mocapkit.view.server import ViewServer
+
+        server = ViewServer(None, files, port=port)
+    try:
+        with _progress("reading", None):
+            scene = build_scene(files, segments=segments, filter_json=filter_json, asf=asf, unit_cm=unit_cm,
+                                strict=strict, rate=rate)
+    except BaseException:
+        if server is not None:
+            server.server_close()
+        raise
     for note in scene["notes"]:
         err.print(f"note: {note}", markup=False, highlight=False)
-    if export is not None:
+    if server is None:
         from mocapkit.view.export import export_scene
 
         out = export_scene(scene, export, fps=fps, frames=span, progress=_progress, follow=follow,
@@ -106,14 +116,11 @@ def view(
         console.print(f"{export}: {out['frames_written']} frames at {out['fps']:g} fps, {out['bytes']:,} bytes",
                       markup=False, highlight=False)
         return
-    _serve(scene, files, port, no_browser)
+    server.publish(scene, files)
+    _serve(server, no_browser)
 
 
-def _serve(scene: dict, files: list[Path], port: int, no_browser: bool) -> None:
-    from mocapkit.view.server import ViewServer
-
-    server = ViewServer(scene, files, port=port)
-
+def _serve(server, no_browser: bool) -> None:
     def _stop(signum, frame):  # SIGTERM stops as Ctrl-C does
         raise KeyboardInterrupt
 

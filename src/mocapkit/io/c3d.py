@@ -680,6 +680,9 @@ def _read_checked(ezc3d, name: str, src: str, layout: C3DLayout) -> Markers:
             manu[key.lower()] = _clean_text(" ".join(s.strip() for s in v if s.strip()))
     if manu:
         meta["manufacturer"] = manu
+    up = _text_list(_param_value(params, "POINT", "Y_SCREEN"))  # the axis drawn upward on screen: "+Z", "+Y"...
+    if up and up[0].strip().upper() in ("+X", "-X", "+Y", "-Y", "+Z", "-Z"):
+        meta["up_axis"] = up[0].strip().upper()
     subjects = _text_list(_param_value(params, "SUBJECTS", "NAMES"))
     if subjects:
         meta["subjects"] = [_clean_text(s.strip()) for s in subjects if s.strip()]

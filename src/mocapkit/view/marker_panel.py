@@ -81,8 +81,10 @@ def fitted_positions(mk: Markers, signals: list[dict], where: str) -> tuple[np.n
 
 
 def marker_panel(pid: str, path: Path, mk: Markers, fitted: np.ndarray | None, knots: list[dict]) -> dict:
-    # OpenSim's TRC files are y-up; C3D, Qualisys and Vicon exports z-up
-    up = "y" if path.suffix.lower() == ".trc" else "z"
+    # a C3D says which axis is up on screen (POINT:Y_SCREEN); OpenSim's TRC files are y-up; Qualisys and
+    # Vicon exports (and C3D files that do not say) z-up
+    axis = str(mk.meta.get("up_axis", "")).lstrip("+-").lower()
+    up = axis if axis in ("y", "z") else ("y" if path.suffix.lower() == ".trc" else "z")
     return {"id": pid, "kind": "markers", "file": str(path), "name": path.name, "up": up,
             "times": encode_array(mk.times, "float64"), "labels": list(mk.labels), "unit": mk.units,
             "positions": encode_array(mk.positions), "fitted": None if fitted is None else encode_array(fitted),

@@ -240,9 +240,15 @@ class _Builder:
         self.panels.append(marker_panel(self.pid(), path, mk, fitted, knots))
 
 
+def _is_compressed(path: Path, kind: str) -> bool:
+    """A file that only a compression writes: a ``.mkc`` clip, a glTF, a ``.mkp``, a points CSV."""
+    return kind in ("packets", "points") or path.suffix.lower() in (".mkc", *GLTF_SUFFIXES)
+
+
 def build_scene(files, *, segments: Path | None = None, filter_json: Path | None = None, asf: Path | None = None,
                 unit_cm: float | None = None, strict: bool = True, rate: float | None = None) -> dict:
-    """Read ``files`` (in order) into the scene of docs/viewer.md.
+    """Read ``files`` into the scene of docs/viewer.md: originals in the order given, then the compressed
+    files (``.mkc``, glTF, ``.mkp``, points CSV), each paired with the original it decodes.
 
     ``segments``: a ``segment --json`` output of the first file (its cuts and labels go on the timeline);
     ``filter_json``: a ``filter --json`` output of the (first) marker file; ``asf`` and ``rate`` (Hz) for
@@ -253,10 +259,18 @@ def build_scene(files, *, segments: Path | None = None, filter_json: Path | None
         raise InvalidParameterError("give at least one file to view")
     b = _Builder(asf, unit_cm, strict, rate)
     fitted_for = None
+    kinds = {path: file_kind(path) for path in files}
+    # compressed files follow the originals they decode, whatever order they were given in
+    files = sorted(files, key=lambda f: _is_compressed(f, kinds[f]))
+    n_skeletons = sum(k == "skeleton" for k in kinds.values())
     for path in files:
-        kind = file_kind(path)
+        kind = kinds[path]
         if kind == "skeleton":
+            before = len(b.skeletons)
             b.skeleton(path)
+            if _is_compressed(path, kind) and len(b.skeletons) > before and n_skeletons > 1:
+                b.notes.append(f"{path.name}: a compressed clip whose joints are those of no other file given: drawn "
+                               "as an original (no error)")
         elif kind == "imu":
             b.imu_file(path)
         elif kind in ("packets", "points"):

@@ -143,12 +143,14 @@ class _Handler(BaseHTTPRequestHandler):
 
 
 class ViewServer(ThreadingHTTPServer):
-    """``ViewServer(scene, files, port=0)``: bound to 127.0.0.1 (a free port when ``port`` is 0)."""
+    """``ViewServer(scene, files, port=0)``: bound to 127.0.0.1 (a free port when ``port`` is 0). With
+    ``scene=None`` the port is taken at once and :meth:`publish` gives the scene later (nothing is served
+    before: a busy port is found before the files are read)."""
 
     daemon_threads = True
 
-    def __init__(self, scene: dict, files: list[Path], port: int = 0, log=None):
-        self.table = routes(scene, files)
+    def __init__(self, scene: dict | None, files: list[Path], port: int = 0, log=None):
+        self.table = {} if scene is None else routes(scene, files)
         self.answer_headers = security_headers((static_dir() / "index.html").read_bytes())
         self.log = log
         try:
@@ -157,6 +159,10 @@ class ViewServer(ThreadingHTTPServer):
             raise MocapError(f"cannot listen on {HOST}:{port}: {e.strerror or e}") from None
         p = self.server_address[1]
         self.allowed_hosts = {f"{HOST}:{p}", f"localhost:{p}"}
+
+    def publish(self, scene: dict, files: list[Path]) -> None:
+        """Serve ``scene`` and ``files`` (the route table is replaced as a whole)."""
+        self.table = routes(scene, files)
 
     @property
     def url(self) -> str:

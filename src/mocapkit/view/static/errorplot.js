@@ -1,4 +1,4 @@
-// The 2-D plot of one IMU sensor's angle error over time: the error curve, the keyframes as ticks, the
+// The 2-D plot of one IMU sensor's angle error over time: the error curve, the keyframes as ticks under the axis, the
 // bound as a dashed line and the playhead. The static part is drawn once per size into an off-screen
 // canvas; each frame copies it and draws the playhead.
 
@@ -62,10 +62,20 @@ export class ErrorPlot {
     ctx.font = `${Math.round(10 * s)}px sans-serif`;
     ctx.fillStyle = "#d8dde6";
     ctx.textBaseline = "top";
-    let title = `${name}: error (°)`;
-    if (maxError !== null && maxError !== undefined) title += ` max ${formatNumber(maxError)}`;
-    if (keyframes) title += `, ${keyframes.length} keyframes`;
-    ctx.fillText(title, b.left, 2 * s);
+    // the title: the sensor's name, shortened with an ellipsis when long, then the error's summary in full
+    let summary = ": error (°)";
+    if (maxError !== null && maxError !== undefined) summary += ` max ${formatNumber(maxError)}`;
+    if (keyframes) summary += `, ${keyframes.length} keyframes`;
+    const room = w - 4 * s - ctx.measureText(summary).width;
+    let shown = name;
+    if (ctx.measureText(shown).width > room) {
+      let n = shown.length;
+      while (n > 1 && ctx.measureText(`${shown.slice(0, n)}…`).width > room) n--;
+      shown = `${shown.slice(0, n)}…`;
+    }
+    this.canvas.title = name + summary; // the whole title on hover
+    this.canvas.dataset.drawnTitle = shown + summary;
+    ctx.fillText(shown + summary, 2 * s, 2 * s);
     // Axes and y ticks.
     ctx.fillStyle = "#5b6474";
     ctx.fillRect(b.left, b.top, 1, b.bottom - b.top);
@@ -82,16 +92,10 @@ export class ErrorPlot {
     ctx.textAlign = "right";
     ctx.fillText(`${formatNumber(this.end)}s`, b.right, h - 2 * s);
     ctx.textAlign = "left";
-    // Keyframes: a tick under the axis and a faint line across the plot.
+    // Keyframes: short ticks under the bottom axis (lines across the plot would hide it when there are many).
     if (keyframes) {
       ctx.fillStyle = "#ffd166";
-      for (const t of keyframes) {
-        const x = Math.round(this.x(t));
-        ctx.globalAlpha = 0.22;
-        ctx.fillRect(x, b.top, Math.max(1, Math.round(s)), b.bottom - b.top);
-        ctx.globalAlpha = 1;
-        ctx.fillRect(x, b.bottom + 1 * s, Math.max(1, Math.round(s)), 5 * s);
-      }
+      for (const t of keyframes) ctx.fillRect(Math.round(this.x(t)), b.bottom + 1 * s, Math.max(1, Math.round(s)), 5 * s);
     }
     // The bound: a dashed line.
     if (bound !== null && bound !== undefined) {

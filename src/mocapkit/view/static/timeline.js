@@ -28,6 +28,10 @@ export class Timeline {
     this.timeText = document.getElementById("time");
     this.strip = document.getElementById("strip");
     document.getElementById("frame-count").textContent = String(times.length);
+    // fixed widths (in digits) so that the readouts, and so the range beside them, never change size
+    const widest = Math.max(...[this.start, this.end].map((t) => Math.abs(t).toFixed(3).length + (t < 0 ? 1 : 0)));
+    this.frameText.style.minWidth = `${String(Math.max(times.length - 1, 0)).length}ch`;
+    this.timeText.style.minWidth = `${widest}ch`;
     this.scrub.max = String(Math.max(times.length - 1, 0));
     this.bind();
     this.resizeStrip();

@@ -2,7 +2,8 @@
 // timeline, and fills in the test hooks of window.mocapkitView (see hooks.js and docs/viewer.md).
 
 import {
-  AmbientLight, Box3, Color, DirectionalLight, GridHelper, PerspectiveCamera, Scene, Vector3, WebGLRenderer,
+  AmbientLight, Box3, Color, DirectionalLight, GridHelper, OrthographicCamera, PerspectiveCamera, Scene, Vector3,
+  WebGLRenderer,
 } from "three";
 import { OrbitControls } from "three/addons/OrbitControls.js";
 import { decodeArray } from "./arrays.js";
@@ -17,6 +18,11 @@ const BACKGROUND = "#1d2026";
 const FOLLOW_TRAVEL = 1.5;
 const FLOOR = "#2c313b";
 const FLOOR_AXES = "#3a414e";
+/** The default view: from the front, a little from above and from the right (unit vector towards the camera). */
+const VIEW_DIR = new Vector3(0.3, 0.35, 1).normalize();
+/** Side by side, panel after panel along the view's horizontal right vector, scaled to one unit along x: every
+ * panel is then at the same distance from the default camera (drawn at the same scale). */
+const ACROSS = new Vector3(VIEW_DIR.z, 0, -VIEW_DIR.x).divideScalar(VIEW_DIR.z);
 
 /** 1, 2 or 5 times a power of ten, nearest (in ratio) to `v` > 0. */
 function niceStep(v) {
@@ -73,7 +79,11 @@ class View {
     const sun = new DirectionalLight(0xffffff, 2.2);
     sun.position.set(0.5, 1, 0.8);
     this.world.add(sun);
-    this.camera = new PerspectiveCamera(40, 1, 0.1, 1000);
+    // only IMU bodies: a parallel projection, so that an original and its decode in the same orientation
+    // show the same faces wherever they are in the grid
+    this.ortho = scene.panels.length > 0 && scene.panels.every((p) => p.kind === "imu");
+    this.aspect = 1;
+    this.camera = this.ortho ? new OrthographicCamera(-1, 1, 1, -1, 0.1, 1000) : new PerspectiveCamera(40, 1, 0.1, 1000);
     this.controls = new OrbitControls(this.camera, this.renderer.domElement);
     this.controls.addEventListener("change", () => this.requestRender());
 
@@ -170,20 +180,20 @@ class View {
   }
 
   /**
-   * Place the panels side by side (each offset along x by the widths before it) or overlaid, and frame
+   * Place the panels side by side (each offset by the widths before it, along ACROSS) or overlaid, and frame
    * the camera on all of them; when following, skeletons are one body apart and the camera is framed
-   * on their current poses.
+   * on their current poses. A floor grid is laid under the skeletons.
    */
   layout() {
     const side = !(this.pairs && this.layoutSelect.value === "overlay");
     const follow = this.following;
     const imus = this.panels.filter((p) => p instanceof ImuPanel);
-    for (const p of imus) p.arrange(this.camera.aspect / (side ? imus.length : 1));
+    for (const p of imus) p.arrange(this.aspect / (side ? imus.length : 1));
     const body = Math.max(0, ...this.skeletons.map((p) => p.measure().size));
     let x = 0;
     let followX = 0;
     const all = new Box3();
-    const paths = new Box3(); // the followed skeletons' boxes over the take, as placed
+    const paths = new Box3(); // the skeletons' boxes over the take, as placed
     for (const p of this.skeletons) p.setJointSize(follow ? 0.012 : null);
     this.panels.forEach((p, i) => {
       const box = p.localBox();
@@ -194,16 +204,16 @@ class View {
       if (follow && p instanceof SkeletonPanel) {
         dx = side ? followX : 0;
         followX += body;
-        paths.union(box.clone().translate(new Vector3(dx, 0, 0)));
       }
-      p.root.position.set(dx, 0, 0);
+      p.root.position.copy(ACROSS).multiplyScalar(dx);
+      if (p instanceof SkeletonPanel) paths.union(box.clone().translate(p.root.position));
       if (side) x = Math.max(x, dx + box.max.x + gap);
-      all.union(box.clone().translate(new Vector3(dx, 0, 0)));
+      all.union(box.clone().translate(p.root.position));
       if (p.label) all.expandByPoint(p.label.position.clone().add(p.root.position).setY(p.label.position.y + p.label.scale.y));
     });
     if (all.isEmpty()) all.set(new Vector3(-100, -100, -100), new Vector3(100, 100, 100)); // nothing to draw
     this.world.updateMatrixWorld(true);
-    this.placeFloor(follow ? paths : null, body);
+    this.placeFloor(paths, body, follow ? 2 * body : 0.5 * body);
     if (follow) {
       this.followed = this.skeletons.length;
       this.followLabels();
@@ -214,8 +224,11 @@ class View {
     }
   }
 
-  /** A floor grid under the followed skeletons' paths (so that travel shows when the camera follows). */
-  placeFloor(paths, body) {
+  /**
+   * A floor grid under the skeletons' paths, `margin` wider on every side (depth cues, and travel shows when
+   * the camera follows).
+   */
+  placeFloor(paths, body, margin) {
     if (this.floor) {
       this.world.remove(this.floor);
       this.floor.geometry.dispose();
@@ -224,7 +237,7 @@ class View {
     }
     if (!paths || paths.isEmpty() || !(body > 0)) return;
     const cell = niceStep(body / 3);
-    const extent = Math.max(paths.max.x - paths.min.x, paths.max.z - paths.min.z) + 2 * body;
+    const extent = Math.max(paths.max.x - paths.min.x, paths.max.z - paths.min.z) + 2 * margin;
     const divisions = Math.min(Math.ceil(extent / cell), 400);
     this.floor = new GridHelper(divisions * cell, divisions, FLOOR_AXES, FLOOR);
     this.floor.position.set(snap((paths.min.x + paths.max.x) / 2, cell), paths.min.y, snap((paths.min.z + paths.max.z) / 2, cell));
@@ -259,7 +272,8 @@ class View {
     const size = Math.max(...m.map((v) => v.size), height);
     const side = !(this.pairs && this.layoutSelect.value === "overlay");
     const spread = side ? (this.skeletons.length - 1) * size : 0;
-    const box = new Box3().setFromCenterAndSize(centre, new Vector3(spread + height * 0.8, height * 1.25, height * 0.8));
+    const box = new Box3().setFromCenterAndSize(
+      centre, new Vector3(spread + height * 0.8, height * 1.25, Math.abs(ACROSS.z) * spread + height * 0.8));
     this.frameCamera(box);
     this.followAt = centre;
   }
@@ -277,10 +291,14 @@ class View {
   /** Put the camera in front of `box` (slightly from above and the side) so that all of it is seen. */
   frameCamera(box) {
     const center = box.getCenter(new Vector3());
-    const dir = new Vector3(0.3, 0.35, 1).normalize();
+    const dir = VIEW_DIR.clone();
     const up = new Vector3(0, 1, 0);
     const right = new Vector3().crossVectors(up, dir).normalize();
     const camUp = new Vector3().crossVectors(dir, right).normalize();
+    if (this.ortho) {
+      this.frameParallel(box, center, dir, right, camUp);
+      return;
+    }
     const tanV = Math.tan((this.camera.fov * Math.PI) / 360);
     const tanH = tanV * this.camera.aspect;
     let distance = 0;
@@ -301,14 +319,37 @@ class View {
     this.framedBox = box;
   }
 
+  /** frameCamera for the parallel projection: the view's half height fits `box` seen along `dir`. */
+  frameParallel(box, center, dir, right, camUp) {
+    let halfW = 0;
+    let halfH = 0;
+    for (let c = 0; c < 8; c++) {
+      const r = new Vector3(c & 1 ? box.max.x : box.min.x, c & 2 ? box.max.y : box.min.y, c & 4 ? box.max.z : box.min.z).sub(center);
+      halfW = Math.max(halfW, Math.abs(r.dot(right)));
+      halfH = Math.max(halfH, Math.abs(r.dot(camUp)));
+    }
+    const half = Math.max(halfH, halfW / this.aspect, 1e-3) * 1.08;
+    // the distance does not change the scale: far enough that the box stays in front as the view orbits
+    const size = Math.max(box.getSize(new Vector3()).length(), 2 * half);
+    Object.assign(this.camera, { left: -half * this.aspect, right: half * this.aspect, top: half, bottom: -half, zoom: 1 });
+    this.camera.position.copy(center).addScaledVector(dir, size);
+    this.camera.near = size * 0.05;
+    this.camera.far = size * 2.5;
+    this.camera.updateProjectionMatrix();
+    this.controls.target.copy(center);
+    this.controls.update();
+    this.framedBox = box;
+  }
+
   resize() {
     const host = this.renderer.domElement.parentElement;
     const w = Math.max(host.clientWidth, 1);
     const h = Math.max(host.clientHeight, 1);
     this.renderer.setSize(w, h, false);
     const aspect = w / h;
-    const changed = Math.abs(aspect - this.camera.aspect) > 1e-6;
-    this.camera.aspect = aspect;
+    const changed = Math.abs(aspect - this.aspect) > 1e-6;
+    this.aspect = aspect;
+    if (!this.ortho) this.camera.aspect = aspect;
     this.camera.updateProjectionMatrix();
     if (!this.framedBox) return;
     if (changed && this.panels.some((p) => p instanceof ImuPanel)) this.layout(); // the grid fits the view's shape
