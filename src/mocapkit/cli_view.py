@@ -125,6 +125,8 @@ def _serve(server, no_browser: bool) -> None:
         raise KeyboardInterrupt
 
     previous = signal.signal(signal.SIGTERM, _stop)
+    # Ctrl-C stops the server even when the shell started it with SIGINT ignored (a background job)
+    previous_int = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         print(f"serving on {server.url}", flush=True)
         err.print("press Ctrl-C to stop", highlight=False)
@@ -138,5 +140,6 @@ def _serve(server, no_browser: bool) -> None:
         err.print("stopped", highlight=False)
     finally:
         signal.signal(signal.SIGTERM, previous)
+        signal.signal(signal.SIGINT, previous_int)
         server.server_close()
         sys.stdout.flush()
