@@ -15,6 +15,7 @@ import re
 import select
 import subprocess
 import sys
+import time
 from pathlib import Path
 from urllib.parse import urlsplit
 
@@ -45,6 +46,8 @@ ASF = DATA / "cmu" / "86.asf"
 LAUNCH_ARGS = ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
                "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 VIEWPORT = {"width": 1280, "height": 800}
+#: a sensor name too long for its error plot's title
+LONG_SENSOR = "s3-right-upper-arm-lateral-segment-sensor"
 
 
 def _run_cli(*args: str) -> str:
@@ -167,17 +170,34 @@ def imu_grid_server(request, tmp_path_factory):
     folder = tmp_path_factory.mktemp("view-imu-grid")
     sensors = folder / "body"
     for i in range(7):
-        shutil.copytree(DATA / "xio" / ("pelvis" if i % 2 else "left-foot"), sensors / f"s{i}")
+        shutil.copytree(DATA / "xio" / ("pelvis" if i % 2 else "left-foot"), sensors / (LONG_SENSOR if i == 3 else f"s{i}"))
     mkp = folder / "body.mkp"
     _run_cli("compress", str(sensors), "--max-angle", "2", "-o", str(mkp))
     return _serve(request, str(sensors), str(mkp))
 
 
+def _wait(page, expr: str, timeout: float) -> int:
+    """Evaluate the JS expression `expr` until it is truthy (at most `timeout` s); the number of evaluations.
+
+    Not `page.wait_for_function`: its polling evaluates a string in the page, which the page's CSP (no
+    'unsafe-eval') refuses; `page.evaluate` goes through the DevTools protocol, which the CSP does not govern."""
+    deadline = time.monotonic() + timeout
+    polls = 0
+    while True:
+        polls += 1
+        if page.evaluate(expr):
+            return polls
+        if time.monotonic() > deadline:
+            pytest.fail(f"not true within {timeout} s: {expr}")
+        page.wait_for_timeout(50)
+
+
 class Page:
     """A fresh page on `served.url` with every console message, page error and request recorded;
-    with `block_outside`, a route aborts (and records) every request not to 127.0.0.1."""
+    with `block_outside`, a route aborts (and records) every request not to 127.0.0.1; `setup(page)` runs
+    before the page is opened. `polls`: how many times readiness was checked."""
 
-    def __init__(self, browser, served, block_outside=False):
+    def __init__(self, browser, served, block_outside=False, setup=None):
         self.context = browser.new_context(viewport=VIEWPORT, device_scale_factor=1)
         self.page = self.context.new_page()
         self.console, self.page_errors, self.requests, self.blocked = [], [], [], []
@@ -198,9 +218,10 @@ class Page:
                     r.continue_()
 
             self.page.route("**/*", route)
+        if setup is not None:
+            setup(self.page)
         self.page.goto(served.url)
-        self.page.wait_for_function("() => window.mocapkitView.ready || window.mocapkitView.errors.length > 0",
-                                    timeout=60_000)
+        self.polls = _wait(self.page, "window.mocapkitView.ready || window.mocapkitView.errors.length > 0", 60)
 
     def js(self, expr, arg=None):
         return self.page.evaluate(expr, arg)
@@ -230,8 +251,8 @@ class Page:
 def open_page(browser):
     pages = []
 
-    def opener(served, block_outside=False):
-        pages.append(Page(browser, served, block_outside))
+    def opener(served, block_outside=False, setup=None):
+        pages.append(Page(browser, served, block_outside, setup))
         return pages[-1]
 
     yield opener
@@ -305,6 +326,29 @@ def test_skeleton_page_loads_with_no_error_and_nothing_leaves_127(open_page, ske
     assert BVH.name in header and CLIP.name in header
 
 
+def test_waiting_for_a_late_scene_under_the_pages_csp(open_page, skeleton_server):
+    """/scene.json held back 1.5 s: the page is not ready at once, and the wait (polling through
+    page.evaluate) sees it become ready with no CSP or other error."""
+    held = []
+
+    def setup(page):
+        def late(route):
+            held.append(time.monotonic())
+            page.wait_for_timeout(1500)
+            route.continue_()
+
+        page.route("**/scene.json", late)
+
+    start = time.monotonic()
+    page = open_page(skeleton_server, setup=setup)
+    assert len(held) == 1
+    assert time.monotonic() - held[0] >= 1.5
+    assert page.polls > 1  # not ready at the first look: the wait did wait
+    assert page.js("window.mocapkitView.ready") is True and page.problems() == []
+    assert page.js("window.mocapkitView.frames") == len(mocapkit.load(BVH).times)
+    assert time.monotonic() - start < 60
+
+
 def test_the_strip_draws_the_segments(open_page, skeleton_server):
     times = np.asarray(mocapkit.load(BVH).times)
     segments = skeleton_server.segments["segments"]
@@ -358,6 +402,21 @@ def test_scrubbing_changes_the_frame_and_the_pose(open_page, skeleton_server):
     assert page.frame_text() >= n - 2
 
 
+def test_the_range_keeps_its_place_as_the_readouts_change(open_page, skeleton_server):
+    n = len(mocapkit.load(BVH).times)
+    page = open_page(skeleton_server)
+
+    def box():
+        return page.page.locator("#scrub").bounding_box()
+
+    first = box()
+    assert first["width"] > 100
+    for frame in (9, 10, n // 2, n - 1, 0):
+        page.scrub(frame)
+        assert page.frame_text() == frame
+        assert box() == first, frame
+
+
 @pytest.mark.parametrize("focus", ["body", "#scrub", "#play"])
 def test_space_plays_and_pauses(open_page, skeleton_server, focus):
     page = open_page(skeleton_server)
@@ -366,7 +425,7 @@ def test_space_plays_and_pauses(open_page, skeleton_server, focus):
     else:
         page.page.focus(focus)
     page.page.keyboard.press("Space")
-    page.page.wait_for_function("() => window.mocapkitView.frame() > 0", timeout=10_000)
+    _wait(page.page, "window.mocapkitView.frame() > 0", 10)
     assert page.page.text_content("#play") == "pause"
     page.page.keyboard.press("Space")
     assert page.page.text_content("#play") == "play"
@@ -394,6 +453,33 @@ def test_screenshot_has_the_skeletons_drawn(open_page, skeleton_server):
         corners = [(r["x"] + 4, r["y"] + 4), (r["x"] + r["w"] - 5, r["y"] + 4),
                    (r["x"] + 4, r["y"] + r["h"] - 5), (r["x"] + r["w"] - 5, r["y"] + r["h"] - 5)]
         assert all(_is_background(img, x, y, bg) for x, y in corners)
+
+
+def test_side_by_side_skeletons_are_drawn_at_the_same_scale(open_page, skeleton_server):
+    """The original and its decode (equal to well under a millimetre) side by side: the same height on the
+    screen, so neither looks bigger for being nearer the camera."""
+    page = open_page(skeleton_server)
+    page.js("(i) => window.mocapkitView.setFrame(i)", 0)
+    heights = []
+    for panel in ("p0", "p1"):
+        pts = np.array(page.positions(panel))
+        heights.append(pts[:, 1].max() - pts[:, 1].min())
+    assert min(heights) > 50
+    assert max(heights) / min(heights) < 1.10, heights
+
+
+def test_the_floor_grid_is_drawn_without_follow(open_page, skeleton_server):
+    page = open_page(skeleton_server)
+    assert not page.page.is_checked("#follow")
+    r = _canvas_rect(page, "#view3d canvas")
+    img = page.screenshot()[int(r["y"]):int(r["y"] + r["h"]), int(r["x"]):int(r["x"] + r["w"])]
+    grid = np.zeros(img.shape[:2], bool)
+    for colour in ("#2c313b", "#3a414e"):  # the floor's lines (viewer.js FLOOR, FLOOR_AXES)
+        grid |= np.abs(img - _rgb(colour)).max(axis=2) <= 3
+    assert grid.sum() > 1000, grid.sum()
+    # under the feet: the floor is in the lower part of the view
+    lowest = max(p[1] for pid in ("p0", "p1") for p in page.positions(pid)) - r["y"]
+    assert grid[int(lowest) - 40:].sum() > 0.5 * grid.sum()
 
 
 def test_overlay_puts_the_decode_on_the_original(open_page, skeleton_server):
@@ -433,6 +519,52 @@ def test_imu_page_loads_with_its_frame_count_and_error_plot(open_page, imu_serve
     pts = page.positions("p0")
     assert len(pts) == 2 and pts == bodies0  # the bodies turn in place
     assert _drawn_fraction(img, pts, bg) == 1.0
+
+
+def _face_colours(img: np.ndarray) -> np.ndarray:
+    """Pixel counts of the bodies' reddish, greenish and bluish faces (not the orange outline, not text)."""
+    r, g, b = (img[..., c].astype(float) for c in range(3))
+    red = (r > 1.6 * g) & (np.abs(g - b) < 25) & (r > 50)
+    green = (g > 1.4 * r) & (g > 1.4 * b) & (g > 50)
+    blue = (b > 1.4 * r) & (b > 1.15 * g) & (b > 50)
+    return np.array([red.sum(), green.sum(), blue.sum()])
+
+
+def test_imu_original_and_decode_show_the_same_faces(open_page, imu_server):
+    """The decode is within 2 degrees of the original: both bodies show the same faces, in the same
+    proportions (a perspective view would show them from different sides)."""
+    n = len(mocapkit.load(IMU)["Quaternion"].times)
+    page = open_page(imu_server)
+    for frame in (0, n // 3, (2 * n) // 3):
+        page.js("(i) => window.mocapkitView.setFrame(i)", frame)
+        img = page.screenshot()
+        (x0, y0), (x1, y1) = page.positions("p0")
+        half = int(0.3 * np.hypot(x1 - x0, y1 - y0))
+        crops = [img[int(y) - half:int(y) + half, int(x) - half:int(x) + half] for x, y in ((x0, y0), (x1, y1))]
+        counts = [_face_colours(c) for c in crops]
+        assert counts[0].sum() > 200, counts
+        share = [c / c.sum() for c in counts]
+        assert np.abs(share[0] - share[1]).max() < 0.08, (frame, counts)
+
+
+def test_imu_error_plot_titles_and_keyframe_ticks(open_page, imu_grid_server):
+    page = open_page(imu_grid_server)
+    plots = page.page.locator("canvas.error-plot")
+    assert plots.count() == 7
+    long_plot = page.page.locator(f"canvas.error-plot[data-sensor='{LONG_SENSOR}']")
+    drawn = long_plot.get_attribute("data-drawn-title")
+    whole = long_plot.get_attribute("title")
+    # the long name shortened, the summary (max error, keyframe count) kept whole
+    assert whole.startswith(LONG_SENSOR + ": error") and re.search(r", \d+ keyframes$", whole)
+    assert "…" in drawn and drawn.endswith(whole[len(LONG_SENSOR):]) and len(drawn) < len(whole)
+    # keyframes: ticks under the axis, nothing yellow over the plot
+    for i in range(plots.count()):
+        img = _png(plots.nth(i).screenshot()).astype(float)
+        h = img.shape[0]
+        r, g, b = img[..., 0], img[..., 1], img[..., 2]
+        yellow = (r > 60) & (g > 0.8 * r) & (b < 0.75 * g)
+        assert yellow[16:h - 20].sum() == 0
+        assert yellow[h - 20:h - 13].sum() > 5
 
 
 # -------------------------------------------------------------------------------------------------- markers

@@ -30,8 +30,9 @@ export class Timeline {
     document.getElementById("frame-count").textContent = String(times.length);
     // fixed widths (in digits) so that the readouts, and so the range beside them, never change size
     const widest = Math.max(...[this.start, this.end].map((t) => Math.abs(t).toFixed(3).length + (t < 0 ? 1 : 0)));
-    this.frameText.style.minWidth = `${String(Math.max(times.length - 1, 0)).length}ch`;
-    this.timeText.style.minWidth = `${widest}ch`;
+    // (a fixed width with some slack: a font without tabular figures may draw some digits wider than "0")
+    this.frameText.style.width = `${String(Math.max(times.length - 1, 0)).length + 0.5}ch`;
+    this.timeText.style.width = `${widest + 0.5}ch`;
     this.scrub.max = String(Math.max(times.length - 1, 0));
     this.bind();
     this.resizeStrip();

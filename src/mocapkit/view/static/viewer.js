@@ -213,7 +213,7 @@ class View {
     });
     if (all.isEmpty()) all.set(new Vector3(-100, -100, -100), new Vector3(100, 100, 100)); // nothing to draw
     this.world.updateMatrixWorld(true);
-    this.placeFloor(paths, body, follow ? 2 * body : 0.5 * body);
+    this.placeFloor(paths, body, follow ? 2 * body : 0.2 * body);
     if (follow) {
       this.followed = this.skeletons.length;
       this.followLabels();
