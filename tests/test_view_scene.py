@@ -353,3 +353,15 @@ def test_a_c3d_says_which_axis_is_up(tmp_path):
 def test_the_shared_bts_c3d_stands_y_up(shared_data):
     assert build_scene([shared_data / "c3d" / "BTS.c3d"])["panels"][0]["up"] == "y"
     assert build_scene([shared_data / "c3d" / "Vicon.c3d"])["panels"][0]["up"] == "z"
+
+
+def test_an_unlikely_height_in_assumed_centimetres_gets_a_hint(tmp_path):
+    bvh = tmp_path / "tiny.bvh"
+    bvh.write_text("HIERARCHY\nROOT Hips\n{\n\tOFFSET 0 0 0\n\tCHANNELS 3 Xposition Yposition Zposition\n"
+                   "\tJOINT Head\n\t{\n\t\tOFFSET 0 1.7 0\n\t\tCHANNELS 3 Zrotation Xrotation Yrotation\n"
+                   "\t\tEnd Site\n\t\t{\n\t\t\tOFFSET 0 0.2 0\n\t\t}\n\t}\n}\n"
+                   "MOTION\nFrames: 2\nFrame Time: 0.01\n0 0 0 0 0 0\n0 0 0 0 0 0\n")
+    notes = build_scene([bvh])["notes"]
+    assert any("it would be 1.7 cm tall: give --unit-cm" in n for n in notes), notes
+    assert not any("tall" in n for n in build_scene([bvh], unit_cm=100)["notes"])
+    assert not any("tall" in n for n in build_scene([BVH])["notes"])

@@ -92,6 +92,16 @@ def _place_segments(seg: dict, where: Path, timeline: np.ndarray) -> dict:
     return seg
 
 
+def _height_hint(pos: np.ndarray, up: str) -> str:
+    """A hint when a skeleton drawn with 1 unit = 1 cm is no person's height (first frame, 50 to 250 cm)."""
+    if pos.size == 0:
+        return ""
+    h = float(np.ptp(pos[0, :, "xyz".index(up)]))
+    if 50 <= h <= 250 or h == 0:
+        return ""
+    return f"; it would be {h:.3g} cm tall: give --unit-cm (2.54 for inches, 100 for metres)"
+
+
 def _check_pairing(path: Path, opath: Path, name: str, pts, times: np.ndarray) -> None:
     """Refuse compressed points that are not of this recording: a stream of another length (when the
     file says), a tick beyond the last sample, or a first point whose time is not that sample's."""
@@ -131,13 +141,15 @@ class _Builder:
         orig = next((o for o in reversed(self.skeletons) if same_skeleton(o[2], motion)), None)
         if orig is None:
             u = self.unit_cm or unit or 1.0
+            pos = world_positions(motion, u)
             if self.unit_cm is None and unit is None:
-                self.notes.append(f"{path.name}: no length unit in the file; 1 unit = 1 cm assumed (--unit-cm)")
+                self.notes.append(f"{path.name}: no length unit in the file; 1 unit = 1 cm assumed (--unit-cm)"
+                                  + _height_hint(pos, up_axis(motion)))
             pid = self.pid()
             if self.unit_cm is None and unit is None:
                 self.assumed.add(pid)
             self.skeletons.append((pid, path, motion, u))
-            self.panels.append(skeleton_panel(pid, path, motion, world_positions(motion, u), bound=bound))
+            self.panels.append(skeleton_panel(pid, path, motion, pos, bound=bound))
             return
         opid, opath, omotion, ou = orig
         # one unit for both (their lengths are the same file units): the original's, unless it was assumed and

@@ -12,7 +12,9 @@ from __future__ import annotations
 import base64
 import hashlib
 import json
+import os
 import re
+import shutil
 import threading
 from http import HTTPStatus
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -115,16 +117,23 @@ class _Handler(BaseHTTPRequestHandler):
             return self._refuse(HTTPStatus.NOT_FOUND, "only the viewer's page and the files named on the command "
                                                       "line are served")
         ctype, body = entry
+        if not isinstance(body, Path):
+            return self._send(ctype, len(body), head, lambda: self.wfile.write(body))
         try:
-            data = body.read_bytes() if isinstance(body, Path) else body
+            fh = open(body, "rb")  # noqa: SIM115 - closed by the with below; a named file is streamed
         except OSError as e:
             return self._refuse(HTTPStatus.NOT_FOUND, f"{e.strerror}")
+        with fh:
+            size = os.fstat(fh.fileno()).st_size
+            self._send(ctype, size, head, lambda: shutil.copyfileobj(fh, self.wfile, 1 << 20))
+
+    def _send(self, ctype: str, size: int, head: bool, write) -> None:
         self.send_response(HTTPStatus.OK)
         self.send_header("Content-Type", ctype)
-        self.send_header("Content-Length", str(len(data)))
+        self.send_header("Content-Length", str(size))
         self._end_headers()
         if not head:
-            self.wfile.write(data)
+            write()
 
     def do_GET(self) -> None:
         self._serve(head=False)
