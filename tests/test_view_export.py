@@ -504,6 +504,141 @@ def test_imu_and_marker_panels_move(tmp_path):
     assert (np.abs(img[rr, cc] - empty[rr, cc]).sum(axis=2) > 60).sum() > 30
 
 
+def imu_scene(sensors: int = 7, n: int = 41, rate: float = 20.0) -> dict:
+    """An IMU panel of ``sensors`` sensors turning about z at different speeds, the decodes lagging."""
+    scene = mixed_scene(n, rate)
+    times = np.arange(n) / rate
+    sens = []
+    for k in range(sensors):
+        ang = (1 + 0.3 * k) * np.pi * times
+        lag = np.radians(1.5) * np.sin(5 * times)
+        sens.append({"name": f"s{k}", "times": encode_array(times, "float64"), "original": encode_array(quat_z(ang)),
+                     "decoded": encode_array(quat_z(ang - lag)), "error_deg": encode_array(np.degrees(np.abs(lag))),
+                     "keyframes": encode_array(times[3::7], "float64"), "bound_deg": 2.0,
+                     "max_error_deg": float(np.degrees(np.abs(lag)).max())})
+    scene["panels"] = [scene["panels"][0] | {"sensors": sens}]
+    return scene
+
+
+def test_imu_original_and_decode_side_by_side_at_one_scale_and_large():
+    """Each sensor's two boxes in its row: the original left, the decode right, their centres apart by more
+    than a box's drawn size, the same box drawn the same size in both, together filling the row's height;
+    each box's colour only on its side; the columns labelled."""
+    from mocapkit.view.export_panels import (
+        _BOX,
+        _REACH,
+        DECODED,
+        ORIGINAL,
+        _sphere,
+        z_up,
+    )
+
+    for sensors, (w, h) in ((7, (960, 540)), (1, (W, H))):
+        view = SceneFigure(imu_scene(sensors), w, h)
+        view.show(0.6)
+        img = view.render()[..., :3].astype(int)
+        texts = [t.get_text() for t in view.fig.texts]
+        assert "original" in texts and "decoded" in texts
+        row_px = 0.7 * h / sensors
+        for k, sv in enumerate(view.views[:sensors]):
+            ao, ad = sv.axes3d["original"], sv.axes3d["decoded"]
+            co, cd = projected(ao, np.zeros((1, 3)))[0], projected(ad, np.zeros((1, 3)))[0]
+            R = sv.mats["original"][12]
+            box_o = projected(ao, z_up(_BOX @ R.T, "z"))
+            box_d = projected(ad, z_up(_BOX @ R.T, "z"))
+            size = np.ptp(box_o, axis=0)
+            assert np.allclose(np.ptp(box_d, axis=0), size, rtol=1e-6)  # one scale
+            assert cd[0] - co[0] > size.max() and abs(cd[1] - co[1]) < 1  # decode right of the original, same row
+            # large: what a turning box may reach spans (nearly) the whole row height (or its capped width)
+            reach = np.ptp(projected(ao, _sphere(_REACH)), axis=0)
+            assert reach.min() > 0.9 * min(row_px, 0.225 * 0.98 * w) and size.max() > 0.35 * reach.min()
+            for ax, mine, other in ((ao, ORIGINAL, DECODED), (ad, DECODED, ORIGINAL)):
+                rr, cc = rows_cols(ax)
+                count = [(np.abs(img[rr, cc] - [int(c[i:i + 2], 16) for i in (1, 3, 5)]).sum(-1) < 30).sum()
+                         for c in (mine, other)]
+                assert count[0] > 20 and count[1] == 0
+            # rows do not overlap: this sensor's boxes are above the next one's
+            if k + 1 < sensors:
+                assert ao.bbox.y0 >= view.views[k + 1].axes3d["original"].bbox.y1 - 1
+
+
+def test_keyframes_are_ticks_under_the_time_axis_with_the_bound_and_playhead():
+    from mocapkit.view.export_panels import KEYFRAME
+
+    scene = imu_scene(3)
+    times = np.arange(41) / 20.0
+    kf = times[3::7]
+    view = SceneFigure(scene, 960, 540)
+    view.show(1.0)
+    img = view.render()[..., :3].astype(int)
+    purple = np.abs(img - [int(KEYFRAME[i:i + 2], 16) for i in (1, 3, 5)]).sum(-1) < 40
+    for sv in view.views[:3]:
+        ax = sv.ax2d
+        assert np.array_equal(sv.keyframes.get_xdata(), kf)
+        bottom = round(540 - ax.bbox.y0)  # the axis' row, counted from the top
+        below = purple[bottom:bottom + 20]
+        for t in kf:
+            col = int(ax.transData.transform((t, 0))[0])
+            run = below[:, col - 1:col + 2].any(axis=1)
+            assert run.sum() >= 4, f"keyframe {t} s: {run.sum()} px"  # a visible tick under the axis
+            assert not purple[int(540 - ax.bbox.y1) + 2:bottom - 2, col - 1:col + 2].any()  # not across the plot
+        for t in (kf[:-1] + kf[1:]) / 2:  # nothing between keyframes
+            col = int(ax.transData.transform((t, 0))[0])
+            assert not below[:, col - 1:col + 2].any()
+        # the bound (dashed) and the playhead are still drawn
+        rr, cc = rows_cols(ax)
+        x_px = int(ax.transData.transform((1.0, 0))[0])
+        red = np.abs(img[rr, x_px - 1:x_px + 2] - [0xd0, 0, 0]).sum(-1) < 40
+        assert red.any(axis=1).mean() > 0.8
+        y_px = int(540 - ax.transData.transform((0, 2.0))[1])
+        bound = np.abs(img[y_px - 1:y_px + 2, cc] - [0xc0, 0, 0]).sum(-1) < 60
+        assert 0.3 < bound.any(axis=0).mean() < 0.95  # dashed: about half the width
+
+
+def marker_coverage(view) -> tuple[float, float]:
+    """The projected box of all the markers' finite positions over the take, as a fraction of the panel's
+    rectangle across and up (the larger is the one the equal aspect lets fill)."""
+    mv = view.views[0]
+    p = mv.pos.reshape(-1, 3)
+    p = p[np.all(np.isfinite(p), axis=1)]
+    px = projected(mv.ax, p)
+    x0, y0, x1, y1 = mv.ax.get_position(original=True).transformed(view.fig.transFigure).extents
+    Hf = view.fig.bbox.height
+    assert px[:, 0].min() >= x0 and px[:, 0].max() <= x1 and px[:, 1].min() >= Hf - y1 and px[:, 1].max() <= Hf - y0
+    return np.ptp(px[:, 0]) / (x1 - x0), np.ptp(px[:, 1]) / (y1 - y0)
+
+
+def test_markers_are_framed_on_their_extent():
+    """A 6 m walk (a long, flat extent): the markers' box fills the panel in one direction, at equal aspect."""
+    times = np.arange(101) / 20.0
+    pos = np.zeros((101, 4, 3))
+    for m, (dy, z) in enumerate(((0, 100), (300, 100), (0, 1700), (300, 1700))):
+        pos[:, m] = np.c_[-3000 + 1200 * times, 0 * times + dy, 0 * times + z]
+    scene = trail_scene()
+    scene["panels"][0] |= {"times": encode_array(times, "float64"), "positions": encode_array(pos), "fitted": None,
+                           "knots": [], "labels": list("abcd")}
+    scene["timeline"]["times"] = encode_array(times, "float64")
+    view = SceneFigure(scene, 960, 540)
+    view.show(2.0)
+    assert np.array_equal(view.render(), view.render_full())
+    assert max(marker_coverage(view)) > 0.7  # 0.35 in mplot3d's square with a 6% margin
+    ax = view.views[0].ax  # square units on screen: equal aspect
+    assert ax.viewLim.width / ax.bbox.width == pytest.approx(ax.viewLim.height / ax.bbox.height, rel=1e-6)
+    # a body at one time is drawn large: its 1.6 m height over a quarter of the panel's height
+    body = projected(ax, pos[40])
+    assert np.ptp(body[:, 1]) > 0.25 * ax.bbox.height
+
+
+@pytest.mark.parametrize("name", ["c3d/vicon-nexus-walking2.c3d", "juggling/5-ball-juggling-qualisys-300hz.tsv"])
+def test_real_markers_are_framed_on_their_extent(shared_data, name):
+    from mocapkit.view.scene import build_scene
+
+    view = SceneFigure(build_scene([shared_data / name]), 960, 540)
+    view.show(1.0)
+    view.render()
+    assert max(marker_coverage(view)) > 0.7
+
+
 # --- MP4 -------------------------------------------------------------------------------------------
 
 needs_ffmpeg = pytest.mark.skipif(shutil.which("ffmpeg") is None or shutil.which("ffprobe") is None,
@@ -735,3 +870,12 @@ def test_the_command_passes_follow_and_trail_and_refuses_them_without_export(tmp
     r = run(bvh, "--follow", "--no-browser")
     assert r.returncode == 2 and "--export" in r.stderr
     assert not (tmp_path / "x.gif").exists()
+
+
+def test_keyframe_ticks_outside_the_exported_window_are_not_drawn():
+    """The ticks hang outside the axes (unclipped): only the keyframes within the window may be drawn."""
+    scene = imu_scene(2)
+    kf = (np.arange(41) / 20.0)[3::7]
+    view = SceneFigure(scene, 960, 540, window=(0.5, 1.2))
+    for sv in view.views[:2]:
+        assert np.array_equal(sv.keyframes.get_xdata(), kf[(kf >= 0.5) & (kf <= 1.2)])

@@ -3,9 +3,11 @@ into a video, with no window: the Agg canvas only, never pyplot.
 
 One figure holds what the page shows: the skeleton panels (bones as lines, joints coloured by their
 error in cm with a colour bar scaled to the clip's bound, else its largest error), the IMU panels (per
-sensor a box turned by the original and by the decoded orientation, and the angle error over time with
-the keyframes, the bound and a playhead), the marker panels (markers now, trajectories, the fitted
-pieces and their knots) and, at the bottom, the timeline with the segments, the cuts and the playhead.
+sensor a row: a box turned by the original orientation and, right of it at the same scale, one turned by
+the decoded, both in a parallel projection filling the row's height; then the angle error over time with
+the bound, the keyframes as ticks under the time axis and a playhead), the marker panels (markers now,
+trajectories, the fitted pieces and their knots; framed on the markers' box at equal aspect over the
+panel's whole rectangle) and, at the bottom, the timeline with the segments, the cuts and the playhead.
 The figure is built once; each output frame only moves the artists (``set_segments``, ``set_offsets``
 + ``set_3d_properties``, ``set_xdata``) before the writer grabs it. As on the page, the skeletons' axes
 follow their poses (a cube of about one body, redrawn whole every frame) when a root travels more than

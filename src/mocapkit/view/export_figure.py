@@ -9,6 +9,8 @@ import numpy as np
 from mocapkit.errors import MocapFormatError
 from mocapkit.view.export_panels import (
     BG,
+    DECODED,
+    ORIGINAL,
     MarkerView,
     SensorView,
     SkeletonView,
@@ -138,18 +140,31 @@ class SceneFigure:
         return lim if lim is not None else np.array([[-1.0, 1.0]] * 3)
 
     def _imu(self, p, x, w, y0, y1, window, fs, where) -> list:
+        """One row per sensor: the original's box, the decode's box (two squares as high as the row, at
+        most 45% of the panel's width together), then the error plot; the columns headed once, above the
+        first row's squares."""
         sensors = _field(p, "sensors", where)
         up = _field(p, "up", where)
         n = max(len(sensors), 1)
-        self.fig.text(x + 0.005, y1 + 0.01, f"{p.get('name', '')}: original (blue box, x y z in red green blue)"
-                      " vs decoded (orange, dashed)", fontsize=fs * 0.75, va="bottom")
+        W, H = self.fig.bbox.width, self.fig.bbox.height
         h = (y1 - y0) / n
+        side = min(h * H, 0.225 * w * W)  # pixels
+        sw = side / W  # a square's width as a fraction of the figure's
+        bx = x + 0.005 * w
+        # the error plots: after the boxes and room for their y label and numbers (clear of the squares)
+        px = bx + 2 * sw + max(0.07 * w, 3.6 * fs * DPI / 72 / W)
+        self.fig.text(x + 0.005, y1 + 0.028, f"{p.get('name', '')}: boxes turned by the original and the decode "
+                      "(x y z arrows in red green blue)", fontsize=fs * 0.75, va="bottom")
+        for k, (key, colour) in enumerate((("original", ORIGINAL), ("decoded", DECODED))):
+            self.fig.text(bx + (k + 0.5) * sw, y1 - h / 2 + side / H / 2 + 0.004, key, fontsize=fs * 0.7,
+                          color=colour, ha="center", va="bottom", weight="bold")
         views = []
         for k, s in enumerate(sensors):
             top = y1 - k * h
-            r3 = [x, top - h, w * 0.34, h * 0.92]
-            r2 = [x + w * 0.42, top - h + h * 0.18, w * 0.55, h * 0.62]
-            views.append(SensorView(self.fig, r3, r2, s, up, window, fs, f"{where}.sensors[{k}]"))
+            r3 = {"original": [bx, top - h, sw, h], "decoded": [bx + sw, top - h, sw, h]}
+            r2 = [px, top - h + h * 0.18, x + 0.97 * w - px, h * 0.62]
+            views.append(SensorView(self.fig, r3, r2, s, up, window, fs, f"{where}.sensors[{k}]",
+                                    time_labels=k == len(sensors) - 1))
         return views
 
     def show(self, t: float) -> None:

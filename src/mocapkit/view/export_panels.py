@@ -105,6 +105,38 @@ def _style_3d(ax, lim: np.ndarray, fs: float, unit: str) -> None:
     ax.set_xlabel(unit, fontsize=fs * 0.7, labelpad=-6)
 
 
+def fit_view(ax, points: np.ndarray, pad_px: float = 0.0, fill: bool = False) -> None:
+    """Frame the 3-D axes ``ax`` on ``points`` (k, 3): its 2-D view (the projected plane's limits, square
+    units: equal aspect kept) set to the points' projected extent plus ``pad_px`` pixels each side, centred.
+    ``fill``: the axes keeps its whole rectangle instead of mplot3d's square inside it (the view widened
+    to match), so a wide or tall panel is used whole. Call after the limits, box aspect, view angles and
+    projection type are set."""
+    from mpl_toolkits.mplot3d import proj3d
+
+    fig = ax.get_figure()
+    pos = ax.get_position(original=True)
+    w_px, h_px = pos.width * fig.bbox.width, pos.height * fig.bbox.height
+    if fill:
+        ax.apply_aspect = lambda position=None: ax._set_position(
+            position if position is not None else ax.get_position(original=True), "active")
+    else:
+        w_px = h_px = min(w_px, h_px)
+    p = points[np.all(np.isfinite(points), axis=1)]
+    if len(p) == 0 or w_px <= 2 * pad_px + 2 or h_px <= 2 * pad_px + 2:
+        return
+    x, y, _ = proj3d.proj_transform(p[:, 0], p[:, 1], p[:, 2], ax.get_proj())
+    cx, cy = (x.min() + x.max()) / 2, (y.min() + y.max()) / 2
+    # units per pixel: the larger of what the extent needs across and up the room left after the pads
+    scale = max(float(np.ptp(x)) / (w_px - 2 * pad_px), float(np.ptp(y)) / (h_px - 2 * pad_px), 1e-12)
+    ax.viewLim.intervalx = (cx - scale * w_px / 2, cx + scale * w_px / 2)
+    ax.viewLim.intervaly = (cy - scale * h_px / 2, cy + scale * h_px / 2)
+
+
+def _box_corners(lim: np.ndarray) -> np.ndarray:
+    """The 8 corners ``(8, 3)`` of the box of axis limits ``lim`` (3, 2)."""
+    return np.array([[lim[0, i], lim[1, j], lim[2, k]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+
+
 def _nice_step(x: float) -> float:
     """1, 2 or 5 times a power of ten, the nearest to ``x`` (> 0) in ratio."""
     p = 10.0 ** math.floor(math.log10(x))
@@ -250,14 +282,27 @@ def body_measures(pos: np.ndarray, parents: list[int], first: int = 0, stop: int
 
 _BOX = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float) * [1.0, 0.6, 0.25]
 _BOX_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if (a ^ b).bit_count() == 1]
-_TRIAD = np.array([[0, 0, 0], [1.5, 0, 0], [0, 0, 0], [0, 1.1, 0], [0, 0, 0], [0, 0, 0.8]], dtype=float)
+_TRIAD = np.array([[0, 0, 0], [1.2, 0, 0], [0, 0, 0], [0, 0.85, 0], [0, 0, 0], [0, 0, 0.6]], dtype=float)
+_REACH = 1.2
+"""The farthest a box's or triad's point gets from its centre (a box corner, 1.19; the x arrow), whatever
+the turn: the squares are framed on a sphere of this radius."""
+KEYFRAME = "#8e24aa"
+"""The keyframe ticks' colour (apart from the error curve's orange and the bound's and playhead's red)."""
+
+
+def _sphere(r: float, k: int = 24) -> np.ndarray:
+    """Points on a sphere of radius ``r`` (``k`` by ``k`` angles): what a turning body may reach."""
+    u, v = np.meshgrid(np.linspace(0, np.pi, k), np.linspace(0, 2 * np.pi, 2 * k))
+    return r * np.c_[(np.sin(u) * np.cos(v)).ravel(), (np.sin(u) * np.sin(v)).ravel(), np.cos(u).ravel()]
 
 
 class SensorView:
-    """One IMU sensor: boxes turned by the original and decoded orientations, the angle error over time."""
+    """One IMU sensor: a box turned by the original orientation (left) and one by the decoded (right), in
+    two square axes of the same size and scale (parallel projection, as the page), and the angle error over
+    time with the bound, the keyframes as ticks under the time axis and a playhead."""
 
-    def __init__(self, fig, rect3d, rect2d, sensor: dict, up: str, window: tuple[float, float], fs: float,
-                 where: str):
+    def __init__(self, fig, rects3d: dict, rect2d, sensor: dict, up: str, window: tuple[float, float], fs: float,
+                 where: str, time_labels: bool = True):
         from mpl_toolkits.mplot3d.art3d import Line3DCollection
 
         self.times = _times(sensor, where)
@@ -270,26 +315,32 @@ class SensorView:
                 if q.shape[0] != n:
                     raise MocapFormatError("scene", None, f"{where}.{key}: {q.shape[0]} samples for {n} times")
                 self.mats[key] = quat_matrices(q)
-        ax = fig.add_axes(rect3d, projection="3d", facecolor=BG)
-        lim = np.array([[-1.6, 1.6]] * 3)
-        ax.set_xlim(*lim[0]), ax.set_ylim(*lim[1]), ax.set_zlim(*lim[2])
-        ax.set_box_aspect((1, 1, 1), zoom=1.4)
-        ax.view_init(elev=14, azim=-62)
-        ax.set_axis_off()
-        ax.set_title(str(sensor.get("name", "")), fontsize=fs * 0.75, pad=0)
-        self.boxes = {}
-        styles = {"original": {"colors": [ORIGINAL] * 12 + ["#d62728", "#2ca02c", "#1f77b4"],
-                               "linewidths": [max(fs / 8, 1.0)] * 12 + [max(fs / 5, 1.5)] * 3},
-                  "decoded": {"colors": DECODED, "linewidths": max(fs / 8, 1.0), "linestyles": "--"}}
-        for key in self.mats:
-            col = Line3DCollection(self._segments(key, 0), **styles[key])
-            ax.add_collection3d(col)
-            self.boxes[key] = col
-        self.ax3d = ax
+        triad = {"colors": ["#d62728", "#2ca02c", "#1f77b4"], "linewidths": [max(fs / 5, 1.5)] * 3,
+                 "linestyles": ["-"] * 3}
+        styles = {"original": {"colors": [ORIGINAL] * 12, "linewidths": [max(fs / 7, 1.2)] * 12,
+                               "linestyles": ["-"] * 12},
+                  "decoded": {"colors": [DECODED] * 12, "linewidths": [max(fs / 7, 1.2)] * 12,
+                              "linestyles": ["--"] * 12}}
+        self.axes3d, self.boxes = {}, {}
+        for key in ("original", "decoded"):
+            ax = fig.add_axes(rects3d[key], projection="3d", facecolor=BG)
+            ax.set_xlim(-_REACH, _REACH), ax.set_ylim(-_REACH, _REACH), ax.set_zlim(-_REACH, _REACH)
+            ax.set_box_aspect((1, 1, 1))
+            ax.view_init(elev=14, azim=-62)
+            ax.set_proj_type("ortho")
+            ax.set_axis_off()
+            # the reach's sphere filling the square but for half the widest line and a pixel (never clipped)
+            fit_view(ax, _sphere(_REACH), pad_px=max(fs / 5, 1.5) * fig.dpi / 72 / 2 + 1)
+            self.axes3d[key] = ax
+            if key in self.mats:
+                style = {k: v + triad[k] for k, v in styles[key].items()}
+                col = Line3DCollection(self._segments(key, 0), **style)
+                ax.add_collection3d(col)
+                self.boxes[key] = col
+        self.ax3d = self.axes3d["original"]
 
         err = _array(sensor, "error_deg", where, optional=True)
         ax2 = fig.add_axes(rect2d, facecolor=BG)
-        ax2.tick_params(labelsize=fs * 0.65, pad=1)
         ax2.set_xlim(*window)
         ax2.set_ylabel("error (°)", fontsize=fs * 0.7, labelpad=1)
         top = 1.0
@@ -306,15 +357,21 @@ class SensorView:
         words = [f"bound {float(bound):.3g}°" if bound is not None else None,
                  f"max {float(sensor['max_error_deg']):.3g}°" if sensor.get("max_error_deg") is not None else None]
         words = [w for w in words if w]
-        ax2.set_title("angle error" + (f" ({', '.join(words)})" if words else "") + ", keyframes ticked",
-                      fontsize=fs * 0.7, pad=2)
-        ax2.set_ylim(0, top * 1.15)
         kf = _array(sensor, "keyframes", where, optional=True)
-        if kf is not None and kf.size:
-            from matplotlib.transforms import blended_transform_factory
-
-            ax2.vlines(kf.ravel(), 0, 0.12, transform=blended_transform_factory(ax2.transData, ax2.transAxes),
-                       color="k", lw=max(fs / 14, 0.6))
+        kf = kf.ravel() if kf is not None else np.zeros(0)
+        ax2.set_title(f"{sensor.get('name', '')}: angle error" + (f" ({', '.join(words)})" if words else "")
+                      + (f", {len(kf)} keyframes (purple ticks)" if len(kf) else ""), fontsize=fs * 0.7, pad=2)
+        ax2.set_ylim(0, top * 1.15)
+        # keyframes: short ticks hanging under the time axis (a fixed length in points, whatever the row's
+        # height); the axis's own ticks point inwards and its numbers sit below the keyframe ticks
+        self.kf_len = max(fs * 0.5, 4.0)  # points
+        ax2.tick_params(labelsize=fs * 0.65, pad=1)
+        ax2.tick_params(axis="x", direction="in", pad=self.kf_len + 1, labelbottom=time_labels)
+        self.keyframes = None
+        shown = kf[(kf >= window[0]) & (kf <= window[1])]  # unclipped ticks: only those of the exported window
+        if len(shown):
+            self.keyframes, = ax2.plot(shown, np.zeros(len(shown)), ls="none", marker=3, markersize=self.kf_len,
+                                       markeredgewidth=max(fs / 8, 1.2), color=KEYFRAME, clip_on=False)
         self.err = err
         self.playhead = ax2.axvline(window[0], color="#d00000", lw=max(fs / 10, 1.0))
         self.ax2d = ax2
@@ -322,10 +379,8 @@ class SensorView:
     def _segments(self, key: str, i: int) -> np.ndarray:
         R = self.mats[key][i]
         box = _BOX @ R.T
-        segs = [(box[a], box[b]) for a, b in _BOX_EDGES]
-        if key == "original":
-            tri = _TRIAD @ R.T
-            segs += [(tri[0], tri[1]), (tri[2], tri[3]), (tri[4], tri[5])]
+        tri = _TRIAD @ R.T
+        segs = [(box[a], box[b]) for a, b in _BOX_EDGES] + [(tri[0], tri[1]), (tri[2], tri[3]), (tri[4], tri[5])]
         return z_up(np.array(segs), self.up)
 
     def artists(self) -> list:
@@ -369,11 +424,13 @@ class MarkerView:
         knot_times = np.concatenate(knot_times) if knot_times else np.zeros(0)
         order = np.argsort(knot_times, kind="stable")
         self.knot_pos, self.knot_times = knots[order], knot_times[order]
-        lim = _limits(np.concatenate([self.pos.reshape(-1, 3), knots]))
+        lim = _limits(np.concatenate([self.pos.reshape(-1, 3), knots]), pad=0.02)  # a small margin
         if lim is None:
             lim = np.array([[-1.0, 1.0]] * 3)
         ax = fig.add_axes(rect, projection="3d", facecolor=BG)
         _style_3d(ax, lim, fs, _field(panel, "unit", where))
+        # framed on the markers' box (equal aspect) over the whole panel, room left for the tick numbers
+        fit_view(ax, _box_corners(lim), pad_px=fs * 2.0, fill=True)
         ax.set_title(f"{panel.get('name', '')} — {M} markers", fontsize=fs * 0.85, pad=0)
         self.trail_s = trail_s
         self.fitted = fitted
