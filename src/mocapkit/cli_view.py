@@ -15,7 +15,6 @@ from mocapkit.cli_options import (
     SegRateOpt,
     StrictOpt,
     UnitCmOpt,
-    _check_output,
     _progress,
     _within,
     console,
@@ -89,8 +88,8 @@ def view(
         from mocapkit.view.export import check_export
 
         inputs = [*files, *(p for p in (segments, filter_json, asf) if p is not None)]
-        _check_output(export, inputs=inputs, option="--export")
-        check_export(export, fps, inputs=inputs)  # suffix, ffmpeg, a GIF's fps: before reading anything
+        # the output (folder, not an input), suffix, ffmpeg, a GIF's fps: before reading anything
+        check_export(export, fps, inputs=inputs)
     elif frames is not None or follow is not None or trail != "1":
         raise InvalidParameterError("--frames, --follow and --trail shape an --export; the page has its own controls")
     server = None

@@ -127,7 +127,8 @@ class _Builder:
         self.asf, self.unit_cm, self.strict, self.rate = asf, unit_cm, strict, rate
         self.panels: list[dict] = []
         self.notes: list[str] = []
-        self.skeletons: list[tuple[str, Path, object, float | None]] = []  # originals: id, path, motion, unit
+        # originals: id, path, motion, unit (cm), positions in file units (forward kinematics done once)
+        self.skeletons: list[tuple[str, Path, object, float, np.ndarray]] = []
         self.imus: list[tuple[str, Path, dict]] = []                        # originals: id, path, signals
         self.paired: set[str] = set()                                        # IMU panels holding a decode
         self.assumed: set[str] = set()                                       # skeletons of no known unit
@@ -141,17 +142,18 @@ class _Builder:
         orig = next((o for o in reversed(self.skeletons) if same_skeleton(o[2], motion)), None)
         if orig is None:
             u = self.unit_cm or unit or 1.0
-            pos = world_positions(motion, u)
+            fk = world_positions(motion, 1.0)
+            pos = fk * u
             if self.unit_cm is None and unit is None:
                 self.notes.append(f"{path.name}: no length unit in the file; 1 unit = 1 cm assumed (--unit-cm)"
                                   + _height_hint(pos, up_axis(motion)))
             pid = self.pid()
             if self.unit_cm is None and unit is None:
                 self.assumed.add(pid)
-            self.skeletons.append((pid, path, motion, u))
+            self.skeletons.append((pid, path, motion, u, fk))
             self.panels.append(skeleton_panel(pid, path, motion, pos, bound=bound))
             return
-        opid, opath, omotion, ou = orig
+        opid, opath, omotion, ou, ofk = orig
         # one unit for both (their lengths are the same file units): the original's, unless it was assumed and
         # the decode knows it; a bound follows the unit the decode is drawn in
         if opid in self.assumed and unit is not None and unit != ou:
@@ -160,7 +162,7 @@ class _Builder:
                               f"({unit:g} cm), which it decodes")
             ou = unit
             self.assumed.discard(opid)
-            self._rescale(opid, omotion, ou)
+            self._rescale(opid, ou)
         elif unit is not None and unit != ou and self.unit_cm is None:
             self.notes.append(f"{path.name}: its unit ({unit:g} cm) differs from {opath.name}'s ({ou:g} cm); both are "
                               f"drawn in {opath.name}'s")
@@ -170,18 +172,19 @@ class _Builder:
         pos = world_positions(motion, u)
         err = None
         if motion.n_frames == omotion.n_frames and np.allclose(motion.times, omotion.times, atol=1e-6, rtol=0):
-            err = joint_errors(world_positions(omotion, ou), pos)
+            err = joint_errors(ofk * ou, pos)
         else:
             self.notes.append(f"{path.name}: {motion.n_frames} frames, {opath.name} {omotion.n_frames}: "
                               "no error per joint (the frames differ)")
         self.panels.append(skeleton_panel(self.pid(), path, motion, pos, role="decoded", decoded_from=opid,
                                           error=err, bound=bound, up=up_axis(omotion)))  # a clip keeps no axis
 
-    def _rescale(self, pid: str, motion, unit: float) -> None:
+    def _rescale(self, pid: str, unit: float) -> None:
+        fk = next(f for i, *_, f in self.skeletons if i == pid)
         for k, p in enumerate(self.panels):
             if p["id"] == pid:
-                self.panels[k]["positions"] = encode_array(world_positions(motion, unit))
-        self.skeletons = [(i, pa, m, unit if i == pid else u) for i, pa, m, u in self.skeletons]
+                self.panels[k]["positions"] = encode_array(fk * unit)
+        self.skeletons = [(i, pa, m, unit if i == pid else u, f) for i, pa, m, u, f in self.skeletons]
 
     def imu_file(self, path: Path) -> None:
         from mocapkit.io import load_signals

@@ -19,18 +19,21 @@ def load_skeleton(path: Path, asf: Path | None, strict: bool, rate: float | None
     """AMC files take ``asf`` and ``rate``. ``(motion, unit_cm or None when the file does not say, bound in cm or None)``."""
     from mocapkit.io.loaders import load_motion
 
+    info = None
     if path.suffix.lower() in GLTF_SUFFIXES:
         from mocapkit.io.gltf import read_gltf
 
         motion = read_gltf(path)
+    elif path.suffix.lower() == ".mkc":  # one read of the clip: its motion and its header's bound and unit
+        from mocapkit.io.mkc_reader import Clip
+
+        clip = Clip(path)
+        motion, info = clip.decode(), clip.info()
     else:
         motion = load_motion(path, asf=asf, rate=rate, strict=strict)
     unit = motion.skeleton.meta.get("length_unit_cm")
     bound = None
-    if path.suffix.lower() == ".mkc":
-        from mocapkit.io.mkc_reader import Clip
-
-        info = Clip(path).info()
+    if info is not None:
         b = info.get("bound") or {}
         if isinstance(b, dict) and b.get("value") is not None:
             bound = float(b["value"]) * float(info["unit_cm"])
