@@ -7,7 +7,7 @@ from pathlib import Path
 
 from rich.table import Table
 
-from mocapkit.cli_options import console, err
+from mocapkit.cli_options import console, err, print_warnings
 
 
 def packets_table(rec: dict, input: Path) -> Table:
@@ -41,6 +41,7 @@ def decompress(points: Path, output: Path, times_from: Path | None, rate: float 
     rec = decompress_packets_job(points, output, times_from=times_from, rate=rate, **columns)
     for line in rec["losses"]:
         err.print(f"warning: {line}", markup=False, highlight=False)
+    print_warnings(rec)
     what = "points" if rec["mode"] == "points" else "samples"
     n = sum(s["points"] if what == "points" else s["samples"] for s in rec["sensors"])
     left = sum(s["samples_left_out"] for s in rec["sensors"])

@@ -49,6 +49,21 @@ def check_outputs(path: Path, *outputs: tuple[Optional[Path], str], inputs=(), f
         check_output(out, [path, *inputs], folder=folder, option=option)
 
 
+def sensor_outputs(folder: Path, names: list[str], path: Path, inputs=()) -> tuple[dict[str, Path], list[str]]:
+    """``({sensor: file under folder}, warnings)``: one CSV per sensor, named safely from a name read from
+    the data (:func:`mocapkit.io.filenames.file_names`), each file checked like an output (never an input,
+    nor a link to one) before anything is written."""
+    from mocapkit.io.atomic import check_output
+    from mocapkit.io.filenames import file_names
+
+    fnames, warnings = file_names(names, ".csv", str(path))
+    dests = {name: folder / f for name, f in fnames.items()}
+    for dest in dests.values():
+        if dest.exists() or dest.is_symlink():
+            check_output(dest, [path, *inputs], option="--output")
+    return dests, warnings
+
+
 def recording(obj, path: Path, fmt: str | None = None) -> dict:
     """The catalog's description of the input (:func:`mocapkit.jobs.recording.describe`)."""
     from mocapkit.jobs.recording import describe

@@ -8,7 +8,8 @@ from pathlib import Path
 from typing import TextIO
 
 from mocapkit.errors import InvalidParameterError
-from mocapkit.jobs.common import Progress, check_outputs, imu_columns, no_progress, output_entry, recording
+from mocapkit.jobs.common import (Progress, check_outputs, imu_columns, no_progress, output_entry, recording,
+                                  sensor_outputs)
 
 #: suffixes that name a file, not a folder (an IMU folder's output must be a folder)
 FILE_SUFFIXES = (".csv", ".txt", ".tsv", ".json", ".bvh", ".amc", ".glb", ".gltf", ".c3d", ".trc", ".mot", ".sto",
@@ -141,6 +142,10 @@ def _imu(path, output, method, threshold, target_icr, max_angle, max_segment_len
         raise InvalidParameterError(f"{output}: segment points are written as .csv")
     mode, target = (("threshold", threshold) if threshold is not None
                     else ("target_icr", target_icr) if target_icr is not None else ("max_angle", max_angle))
+    warnings: list[str] = []
+    dests = {name: output for name in signals}
+    if output is not None and folder_mode:
+        dests, warnings = sensor_outputs(output, list(signals), path)
     comps = {}
     with progress(f"compressing {path.name}", len(signals)) as update:
         for i, (name, sig) in enumerate(signals.items()):
@@ -154,7 +159,7 @@ def _imu(path, output, method, threshold, target_icr, max_angle, max_segment_len
         comp = comps[name]
         records.append(_signal_record(name, sig.source, comp, evaluate(sig, comp), mode, target))
         if output is not None:
-            dest = output / f"{name}.csv" if folder_mode else output
+            dest = dests[name]
             if folder_mode:
                 output.mkdir(exist_ok=True)  # one new level; its parent was checked before any work
             write_signal_csv(dest, comp.times, comp.values)
@@ -163,7 +168,6 @@ def _imu(path, output, method, threshold, target_icr, max_angle, max_segment_len
             points_stream.write("time,w,x,y,z\n")
             for t, v in zip(comp.times.tolist(), comp.values.tolist()):
                 points_stream.write(",".join(repr(x) for x in (t, *v)) + "\n")
-    warnings = []
     for sig in signals.values():
         for w in sig.meta.get("warnings", []):
             if f"{sig.source}: {w}" not in warnings:

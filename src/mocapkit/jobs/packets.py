@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import BoundViolationError, InvalidParameterError
-from mocapkit.jobs.common import Progress, check_outputs, imu_columns, no_progress, output_entry, recording
+from mocapkit.jobs.common import (Progress, check_outputs, imu_columns, no_progress, output_entry, recording,
+                                  sensor_outputs)
 
 #: bytes per sample of the raw stream a packet stream is compared with: four float32
 RAW_SAMPLE_BYTES = 16
@@ -220,6 +221,9 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
                                     "(one CSV per sensor), not a .csv file")
     if not folder and output.suffix.lower() != ".csv" and not is_device_or_pipe(output):
         raise InvalidParameterError(f"{output}: decoded points and samples are written as .csv")
+    dests, warnings = {name: output for name in names}, []
+    if folder:
+        dests, warnings = sensor_outputs(output, names, path, inputs=[times_from])
     originals = None
     if times_from is not None:
         originals = _originals(times_from, names, rate, imu_columns(time_column, quaternion_columns, scalar_last,
@@ -263,7 +267,7 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
     if folder:
         output.mkdir(exist_ok=True)
     for name, what in written.items():
-        dest = output / f"{name}.csv" if folder else output
+        dest = dests[name]
         if what[0] == "points":
             atomic_write_text(dest, what[1])
         else:
@@ -272,4 +276,4 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
     return {"job": "decompress", "file": str(path), "kind": "imu", "mode": "points" if originals is None and rate is None
             else "samples", "bits": pf.header.bits, "max_angle": pf.header.max_angle_deg,
             "lost_packets": pf.lost_packets, "damaged_packets": len(pf.damaged), "losses": pf.losses(),
-            "sensors": records, "outputs": outputs, "warnings": []}
+            "sensors": records, "outputs": outputs, "warnings": warnings}
