@@ -29,8 +29,11 @@ METRICS = {"joint": "joint_positions", "end-site": "positions", "shell": "shell"
 SKELETAL_OUTPUTS = (".mkc", ".glb", ".gltf", ".bvh")
 
 
-def check_options(max_angle=None, max_position_error=None, error_metric="joint", shell_distance=3.0) -> None:
+def check_options(max_angle=None, max_position_error=None, error_metric="joint", shell_distance=3.0,
+                  skeletal_format=None) -> None:
     """The checks that need no file: at most one bound, a known metric, a positive shell distance."""
+    if skeletal_format not in (None, "glb", "mkc"):
+        raise InvalidParameterError(f"--skeletal-format {skeletal_format!r}: glb or mkc")
     if max_angle is not None and max_position_error is not None:
         raise InvalidParameterError("give at most one of --max-angle (IMU data) and --max-position-error (skeletons)")
     for name, v, lo, hi in (("--max-angle", max_angle, 0.0, 180.0), ("--max-position-error", max_position_error,
@@ -48,7 +51,8 @@ def verify_job(path: Path, output: Path | None = None, *, compressed: Path | Non
                shell_distance: float = 3.0, unit_cm: float | None = None, asf: Path | None = None,
                rate: float | None = None, strict: bool = True, time_column: str | None = None,
                quaternion_columns: str | None = None, scalar_last: bool = False, time_unit: str | None = None,
-               compressed_dir: str | None = None, out: str | None = None, progress: Progress = no_progress) -> dict:
+               compressed_dir: str | None = None, out: str | None = None, skeletal_format: str | None = None,
+               progress: Progress = no_progress) -> dict:
     """Compare the original ``path`` with ``compressed`` (in a batch: ``output``, the file
     :func:`mocapkit.jobs.batch_output` found under ``compressed_dir``) and return the record.
 
@@ -59,7 +63,7 @@ def verify_job(path: Path, output: Path | None = None, *, compressed: Path | Non
     """
     from mocapkit.io.loaders import kind_of
 
-    check_options(max_angle, max_position_error, error_metric, shell_distance)
+    check_options(max_angle, max_position_error, error_metric, shell_distance, skeletal_format)
     path = Path(path)
     compressed = Path(compressed if compressed is not None else output) if (compressed or output) else None
     if compressed is None:
@@ -139,6 +143,9 @@ def _read_compressed_imu(compressed: Path, names: list[str]) -> tuple[dict[str, 
         if not files:
             raise MocapFormatError(str(compressed), None, "no points CSV (<sensor>.csv) in this folder")
         return {n: _read_points_csv(f, n) for n, f in files.items()}, "points_csv", []
+    if compressed.suffix.lower() != ".csv":
+        raise InvalidParameterError(f"{compressed}: compressed IMU data is a points CSV, a folder of them or a .mkp "
+                                    "file")
     if len(names) != 1:
         raise InvalidParameterError(f"{compressed}: one points CSV, but the original holds {len(names)} sensors "
                                     f"({', '.join(names[:6])}): give the folder of one CSV per sensor")
@@ -299,3 +306,34 @@ def _skeletal(path, compressed, bound, metric, shell_distance, unit_cm, asf, rat
             "frames": original.n_frames, "joints": original.skeleton.n_joints,
             "end_sites": len(original.skeleton.end_sites), **s, "warnings": warnings,
             "outputs": [], "recording": recording(original, path)}
+
+
+# ---- in a batch ----------------------------------------------------------------------------------------
+
+#: what a ``compress`` batch writes for an input, by kind (``jobs.batch_output``)
+COMPRESSED_SUFFIXES = {"imu": (".points",), "skeletal": (".glb", ".mkc")}
+
+
+def compressed_output(path: Path, options: dict, base: Path) -> Path:
+    """The output a ``mocapkit batch compress ... --out COMPRESSED_DIR`` wrote for ``path``: ``base`` is
+    ``OUT/<relative dir>/<stem>`` of this batch (``options["out"]``), so the same relative place under
+    ``options["compressed_dir"]`` with the suffix of its kind (``.points`` folder; ``.glb`` or ``.mkc``,
+    ``options["skeletal_format"]`` choosing when both are there)."""
+    from mocapkit.io.loaders import kind_of
+
+    out, root = options.get("out"), options.get("compressed_dir")
+    if not out or not root:
+        raise InvalidParameterError("a batch verify needs the folder of the compressed outputs (--compressed DIR)")
+    rel = Path(base).relative_to(Path(out))
+    stem = Path(root) / rel
+    fmt = options.get("skeletal_format")
+    wanted = (f".{fmt}",) if fmt and kind_of(path) == "skeletal" else COMPRESSED_SUFFIXES.get(kind_of(path), ())
+    found = [stem.with_name(stem.name + s) for s in wanted if stem.with_name(stem.name + s).exists()]
+    if not found:
+        raise InvalidParameterError(f"{path}: no compressed output under {root} (looked for "
+                                    f"{', '.join(stem.name + s for s in wanted) or 'nothing: not IMU data or a skeleton'}"
+                                    f" in {stem.parent})")
+    if len(found) > 1:
+        raise InvalidParameterError(f"{path}: both {' and '.join(f.name for f in found)} under {stem.parent}: give "
+                                    "--skeletal-format glb|mkc")
+    return found[0]
