@@ -314,3 +314,40 @@ def test_mismatched_pairs_exit_2(tmp_path, capsys):
     assert _cli(["verify", str(imu), str(pts)]) == 2
     assert "not a compression of this file" in capsys.readouterr().err
     assert _cli(["verify", str(walk), str(clip), "--max-angle", "2"]) == 2  # an IMU bound for a skeleton
+
+
+# ---- batch verify -----------------------------------------------------------------------------------
+
+def test_batch_verify_over_a_compress_batch(tmp_path, capsys):
+    import shutil
+
+    from mocapkit.batch.journal import read_journal
+
+    inp = tmp_path / "in"
+    (inp / "walk").mkdir(parents=True)
+    shutil.copy(DATA / "bvh" / "walk-meredith-60.bvh", inp / "walk")
+    shutil.copy(DATA / "cmu" / "86_01_first60.amc", inp)
+    shutil.copy(DATA / "cmu" / "86.asf", inp)
+    comp, out = tmp_path / "comp", tmp_path / "check"
+    assert _cli(["batch", "compress", str(inp), "--out", str(comp), "--max-position-error", "1", "--jobs", "1"]) == 0
+    assert (comp / "walk" / "walk-meredith-60.glb").is_file() and (comp / "86_01_first60.glb").is_file()
+    capsys.readouterr()
+    assert _cli(["batch", "verify", str(inp), "--compressed", str(comp), "--out", str(out),
+                 "--max-position-error", "1", "--jobs", "1"]) == 0
+    assert "0 of 2 verified pairs exceed the bound" in capsys.readouterr().out
+    rows = read_journal(out / "journal.jsonl")
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    for r in rows:  # each row is the single-file command's record
+        rec = json.loads(r["record_json"])
+        single = verify_job(Path(r["input"]), compressed=Path(rec["compressed"]), max_position_error=1.0)
+        assert rec["max_error"] == single["max_error"] and rec["within_bound"] is True
+    # a tighter bound: both pairs exceed it; a missing output is an error row, the other pair still runs
+    (comp / "walk" / "walk-meredith-60.glb").unlink()
+    assert _cli(["batch", "verify", str(inp), "--compressed", str(comp), "--out", str(tmp_path / "c2"),
+                 "--max-position-error", "0.001", "--jobs", "1"]) == 1
+    text = capsys.readouterr().out
+    assert "1 of 1 verified pairs exceed the bound" in text and "86_01_first60.amc" in text
+    assert "no compressed output" in text
+    # the compressed folder inside an input folder, or as --out, is refused before any work
+    assert _cli(["batch", "verify", str(tmp_path), "--compressed", str(comp), "--out", str(tmp_path / "c3")]) == 2
+    assert _cli(["batch", "verify", str(inp), "--compressed", str(comp), "--out", str(comp)]) == 2
