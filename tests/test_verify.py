@@ -19,7 +19,7 @@ from mocapkit.io import load_signals, read_imu_csv
 from mocapkit.io.loaders import load_motion
 from mocapkit.jobs.verify import verify_job
 from mocapkit.verify.kinematics import world_pose
-from mocapkit.verify.slerp import angle_deg, interpolate, slerp
+from mocapkit.verify.quaternions import angle_deg, interpolate, slerp
 from reference_kinematics import naive_positions
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -351,3 +351,16 @@ def test_batch_verify_over_a_compress_batch(tmp_path, capsys):
     # the compressed folder inside an input folder, or as --out, is refused before any work
     assert _cli(["batch", "verify", str(tmp_path), "--compressed", str(comp), "--out", str(tmp_path / "c3")]) == 2
     assert _cli(["batch", "verify", str(inp), "--compressed", str(comp), "--out", str(comp)]) == 2
+
+
+def test_the_checks_are_a_second_implementation():
+    """``mocapkit.verify`` imports no mocapkit module but its own: not the encoders' or the model's kernels."""
+    import ast
+
+    root = Path(__file__).resolve().parents[1] / "src" / "mocapkit" / "verify"
+    for f in sorted(root.glob("*.py")):
+        for node in ast.walk(ast.parse(f.read_text())):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module or ""] if isinstance(node, ast.ImportFrom) else []
+            for n in names:
+                assert not n.startswith("mocapkit") or n.startswith("mocapkit.verify"), (f.name, n)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mocapkit.verify.kinematics import WorldPose, world_pose
-from mocapkit.verify.slerp import angle_deg, interpolate
+from mocapkit.verify.quaternions import angle_deg, interpolate
 
 
 def decode_runs(at: np.ndarray, point_at: np.ndarray, points: np.ndarray, gap_before: np.ndarray | None = None
