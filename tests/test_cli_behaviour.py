@@ -160,7 +160,8 @@ def test_skeletal_progress_reports_every_step(bvh):
 # the Python API
 # ------------------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("package", ["mocapkit", "mocapkit.pla", "mocapkit.filters", "mocapkit.segment", "mocapkit.io"])
+@pytest.mark.parametrize("package", ["mocapkit", "mocapkit.pla", "mocapkit.filters", "mocapkit.segment", "mocapkit.io",
+                                     "mocapkit.verify"])
 def test_public_names_exist_and_no_function_hides_a_submodule(package):
     pkg = importlib.import_module(package)
     assert pkg.__all__, f"{package} exports nothing"

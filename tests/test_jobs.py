@@ -163,7 +163,7 @@ def test_bad_input_and_unknown_job_are_errors(tmp_path, files):
         run_job("dance", files["bvh"], {})
     with pytest.raises(InvalidParameterError, match="exactly one"):
         run_job("compress", files["imu"], {"threshold": 0.1, "max_angle": 1.0})
-    assert set(JOBS) == {"info", "compress", "filter", "segment"}
+    assert set(JOBS) == {"info", "compress", "filter", "segment", "verify"}
 
 
 def test_jobs_say_which_inputs_they_do_not_read(files, tests_data):

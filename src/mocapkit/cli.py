@@ -798,6 +798,9 @@ from mocapkit.cli_similarity import similarity as _similarity  # noqa: E402 - im
 app.command("similarity")(_similarity)
 from mocapkit.cli_view import view as _view  # noqa: E402 - imports the shared options only
 app.command("view")(_view)
+from mocapkit.cli_verify import verify as _verify  # noqa: E402 - imports the shared options only
+
+app.command("verify")(_verify)
 
 from mocapkit.cli_batch import batch_app  # noqa: E402 - the sub-app imports the shared options only
 

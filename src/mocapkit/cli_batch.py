@@ -104,6 +104,11 @@ def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: Optional[i
     finally:
         close()
     _summary(job, res)
+    if job == "verify":
+        from mocapkit.cli_verify import summarise_exceeded
+
+        if summarise_exceeded(res.rows):
+            raise typer.Exit(1)
     if res.errors:
         raise typer.Exit(1)
 
@@ -262,3 +267,43 @@ def batch_segment(
     options = {"asf": _abs(asf), "method": method.value, "joint": joint or None, "train": train_abs, "rate": rate,
                "downsample": downsample, "labels_beside": labels_beside}
     _run("segment", inputs, options, out, jobs, engine, scheduler, resume, db)
+
+
+@batch_app.command("verify")
+def batch_verify(
+    inputs: InputsArg,
+    compressed: Annotated[Path, typer.Option("--compressed", help="The --out folder of the `batch compress` whose "
+                                                                  "outputs are checked (same INPUTs).")],
+    out: OutOpt,
+    max_angle: MaxAngleOpt = None,
+    max_position_error: MaxPositionErrorOpt = None,
+    error_metric: Annotated[str, typer.Option("--error-metric", help="joint, end-site or shell (see mocapkit verify "
+                                                                     "--help).")] = "joint",
+    shell_distance: ShellDistanceOpt = 3.0,
+    skeletal_format: Annotated[Optional[str], typer.Option("--skeletal-format", help="glb or mkc, when both are "
+                                                           "there.")] = None,
+    unit_cm: UnitCmOpt = None,
+    asf: AsfOpt = None,
+    rate: RateOpt = None,
+    time_column: TimeColumnOpt = None,
+    quaternion_columns: QuatColumnsOpt = None,
+    scalar_last: ScalarLastOpt = False,
+    time_unit: TimeUnitOpt = None,
+    strict: StrictOpt = True,
+    jobs: JobsOpt = None,
+    engine: EngineOpt = "local",
+    scheduler: SchedulerOpt = None,
+    resume: ResumeOpt = False,
+    db: DbOpt = None,
+) -> None:
+    """Check every output of an earlier `batch compress ... --out COMPRESSED` against its input (the record of
+    ``mocapkit verify --json``); the summary counts the pairs beyond the bound (exit 1 when any is)."""
+    from mocapkit.cli_verify import check_batch_folders
+
+    check_batch_folders(inputs, compressed, out)
+    options = {"compressed_dir": _abs(compressed), "out": _abs(out), "max_angle": max_angle,
+               "max_position_error": max_position_error, "error_metric": error_metric,
+               "shell_distance": shell_distance, "skeletal_format": skeletal_format, "unit_cm": unit_cm,
+               "asf": _abs(asf), "rate": rate, "time_column": time_column, "quaternion_columns": quaternion_columns,
+               "scalar_last": scalar_last, "time_unit": time_unit, "strict": strict}
+    _run("verify", inputs, options, out, jobs, engine, scheduler, resume, db)

@@ -17,15 +17,18 @@ from mocapkit.jobs.filter import filter_job
 from mocapkit.jobs.info import info_job
 from mocapkit.jobs.segment import check_options as _segment_checks
 from mocapkit.jobs.segment import segment_job
+from mocapkit.jobs.verify import check_options as _verify_checks
+from mocapkit.jobs.verify import verify_job
 
-JOBS = {"info": info_job, "compress": compress_job, "filter": filter_job, "segment": segment_job}
+JOBS = {"info": info_job, "compress": compress_job, "filter": filter_job, "segment": segment_job,
+        "verify": verify_job}
 
 __all__ = ["JOBS", "batch_output", "check_options", "compress_job", "filter_job", "info_job", "not_read_by", "run_job",
-           "segment_job"]
+           "segment_job", "verify_job"]
 
 #: the kinds of input (``mocapkit.io.loaders.kind_of``) each job reads
 READS = {"info": ("imu", "skeletal", "markers", "table"), "compress": ("imu", "skeletal"),
-         "filter": ("markers",), "segment": ("skeletal",)}
+         "filter": ("markers",), "segment": ("skeletal",), "verify": ("imu", "skeletal")}
 _KIND_WORDS = {"imu": "IMU data", "skeletal": "skeletons", "markers": "marker files", "table": "OpenSim tables"}
 _KIND_WORD = {"imu": "IMU data", "skeletal": "a skeleton", "markers": "a marker file", "table": "an OpenSim table"}
 
@@ -102,7 +105,8 @@ def check_options(job: str, options: dict) -> None:
     mlp`` without ``--train``): the checks each job makes first, without a file."""
     if job not in JOBS:
         raise InvalidParameterError(f"unknown job {job!r}: one of {', '.join(JOBS)}")
-    check = {"compress": _compress_checks, "filter": _filter_checks, "segment": _segment_checks}.get(job)
+    check = {"compress": _compress_checks, "filter": _filter_checks, "segment": _segment_checks,
+             "verify": _verify_checks}.get(job)
     if check is not None:
         check(**{k: v for k, v in options.items() if k in check.__code__.co_varnames})
 
@@ -112,10 +116,16 @@ def batch_output(job: str, path: str | Path, options: dict, base: str | Path) ->
     ``base`` is ``OUT/<relative folder>/<input stem>``. Compressed IMU points go to the folder
     ``<base>.points`` (one CSV per sensor, whatever the number of sensors), a compressed skeleton to
     ``<base>.glb`` (``<base>.mkc`` with the option ``skeletal_format="mkc"``), filtered values to ``<base>.filtered.csv`` (``.filtered.c3d`` for a C3D input);
-    ``info`` and ``segment`` write nothing (their record is the result)."""
+    ``info`` and ``segment`` write nothing (their record is the result); ``verify`` writes nothing and reads
+    what a ``compress`` batch wrote for ``path`` under ``options["compressed_dir"]``
+    (:func:`mocapkit.jobs.verify.compressed_output`), which it gets as its ``output``."""
     from mocapkit.io.loaders import kind_of
 
     path, base = Path(path), Path(base)
+    if job == "verify":
+        from mocapkit.jobs.verify import compressed_output
+
+        return compressed_output(path, options, base)
     if job == "compress":
         if kind_of(path) == "skeletal":
             out = base.with_name(base.name + "." + (options.get("skeletal_format") or "glb"))
