@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation, Slerp
 
@@ -254,8 +254,8 @@ def streams(draw):
     return n, rate, layout, epoch, jitter, drop, step, seed, speed, lost
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
-                                                                   HealthCheck.too_slow])
+@settings(max_examples=20, deadline=None, phases=[Phase.explicit, Phase.reuse, Phase.generate],
+          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(stream=streams(), deg=st.sampled_from([0.5, 1.0, 2.0, 5.0]))
 def test_every_decode_path_is_within_the_bound_or_refuses(tmp_path_factory, stream, deg):
     n, rate, layout, epoch, jitter, drop, step, seed, speed, lost = stream

@@ -230,7 +230,7 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
             if m > 50_000_000:
                 raise InvalidParameterError(f"--rate {rate:g} over {(s.ticks[-1] - s.ticks[0]) / r:g} s gives {m} "
                                             "samples; too many")
-            u = float(s.ticks[0]) + np.arange(m) * step
+            u = np.minimum(float(s.ticks[0]) + np.arange(m) * step, float(s.ticks[-1]))  # not past it by rounding
             times = s.sensor.nominal_times(u)
             if m > 1 and not np.diff(times).min() >= MIN_STEP:
                 raise InvalidParameterError(f"--rate {rate:g}: the grid's steps vanish in the rounding of times near "

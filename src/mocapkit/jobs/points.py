@@ -131,7 +131,7 @@ def _grid(times: np.ndarray, rate: float) -> np.ndarray:
     n_float = math.floor(span * rate + 1e-9) + 1.0 if math.isfinite(span * rate) else math.inf
     if n_float > 50_000_000:
         raise InvalidParameterError(f"--rate {rate:g} over {span:g} s gives {n_float:g} samples; too many")
-    t = times[0] + np.arange(int(n_float)) / rate
+    t = np.minimum(times[0] + np.arange(int(n_float)) / rate, times[-1])  # not past the last point by rounding
     if t.shape[0] > 1 and not np.all(np.diff(t) > 0):
         raise InvalidParameterError(f"--rate {rate:g}: the grid's steps vanish in the rounding of times near "
                                     f"{float(times[0]):g} s; give a lower rate")
