@@ -12,8 +12,8 @@ container. The full specification is ``docs/mkp.md``. File layout (little-endian
     7       1     S, number of sensors (1..255)
     8       8     end-to-end bound, degrees (float64)
     16      4     maximum segment length of the encoder, samples (uint32; informational)
-    20      ...   S sensors: name length (1 byte, 1..255), UTF-8 name, rate Hz (float64 > 0),
-                  time of tick 0 in seconds (float64)
+    20      ...   S sensors: name length (1 byte, 1..255), UTF-8 name, rate Hz (float64, 1e-6..1e9),
+                  time of tick 0 in seconds (float64, within ±1e12): tick k at the nominal t0 + k / rate
     ...     4     CRC-32 of every header byte before it
     ...     ...   packets as received: length L (1 byte, >= 1) then L bytes
 
