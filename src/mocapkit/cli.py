@@ -444,8 +444,6 @@ def decompress(
 ) -> None:
     """Reconstruct a full-rate quaternion signal from segment points by SLERP, or the full-rate motion
     of a compressed skeletal clip (.mkc -> .bvh/.glb; .glb/.gltf -> .bvh)."""
-    import numpy as np
-
     # several sensors of a .mkp decode into a folder (one CSV each): an existing folder is a valid output
     _check_output(output, folder=points.suffix.lower() == ".mkp" and output.is_dir(), source=points,
                   inputs=(times_from,))
@@ -472,46 +470,12 @@ def decompress(
         raise InvalidParameterError(f"{points}: decompress reads segment points (CSV time,w,x,y,z) or a "
                                     "compressed clip (.glb/.gltf), not a full recording")
 
-    from mocapkit.io import load_signals, read_imu_csv, write_signal_csv
-    from mocapkit.pla.decode import reconstruct_points, unit_quaternions
+    from mocapkit.jobs.points import decompress_points_job
 
-    if times_from is None and rate is None:
-        raise InvalidParameterError("give --times-from ORIGINAL or --rate HZ")
-    pts = read_imu_csv(points)
-    _warn_signals({"points": pts})
-    from mocapkit.jobs.packets import refuse_gaps
-
-    refuse_gaps(points)  # points of a .mkp stream with lost packets: never bridged
-    if times_from is not None:
-        originals = load_signals(times_from, rate=rate,
-                                 **_columns(time_column, quaternion_columns, scalar_last, time_unit))
-        if len(originals) != 1:
-            raise InvalidParameterError(
-                f"{times_from} holds {len(originals)} signals ({', '.join(list(originals)[:6])}): pick the one the "
-                "points came from with --quaternion-columns (e.g. its W,X,Y,Z column names)")
-        _warn_signals(originals)
-        t = next(iter(originals.values())).times
-    else:
-        span = float(pts.times[-1] - pts.times[0])
-        n_float = math.floor(span * rate + 1e-9) + 1.0 if math.isfinite(span * rate) else math.inf
-        if n_float > 50_000_000:
-            raise InvalidParameterError(f"--rate {rate:g} over {span:g} s gives {n_float:g} samples; too many")
-        t = pts.times[0] + np.arange(int(n_float)) / rate
-        if t.shape[0] > 1 and not np.all(np.diff(t) > 0):
-            raise InvalidParameterError(f"--rate {rate:g}: the grid's steps vanish in the rounding of times near "
-                                        f"{float(pts.times[0]):g} s; give a lower rate")
-    try:
-        if len(pts) == 1:  # one point: that orientation at every time
-            vals = np.repeat(unit_quaternions(pts.values), len(t), axis=0)
-        else:
-            vals = reconstruct_points(pts.times, pts.values, t, "quaternion")
-    except InvalidParameterError as e:
-        raise InvalidParameterError(f"{points}: {e}") from None
-    norms = np.sqrt(np.einsum("ij,ij->i", vals, vals)) if len(vals) else np.ones(0)
-    if not (np.all(np.isfinite(vals)) and np.all(np.abs(norms - 1.0) < 1e-9)):  # never a zero-norm or NaN row
-        raise MocapError(f"{points}: the decoded quaternions are not all finite unit quaternions (a bug: please report)")
-    write_signal_csv(output, t, vals)
-    err.print(f"{points}: {len(pts)} points -> {len(t)} samples in {output}")
+    rec = decompress_points_job(points, output, times_from=times_from, rate=rate,
+                                **_columns(time_column, quaternion_columns, scalar_last, time_unit))
+    print_warnings(rec)
+    err.print(f"{points}: {rec['points']} points -> {rec['samples']} samples in {output}")
 
 
 def _decompress_clip(clip: Path, output: Path, times_from: Optional[Path], rate: Optional[float]) -> None:

@@ -12,8 +12,8 @@ container. The full specification is ``docs/mkp.md``. File layout (little-endian
     7       1     S, number of sensors (1..255)
     8       8     end-to-end bound, degrees (float64)
     16      4     maximum segment length of the encoder, samples (uint32; informational)
-    20      ...   S sensors: name length (1 byte, 1..255), UTF-8 name, rate Hz (float64 > 0),
-                  time of tick 0 in seconds (float64)
+    20      ...   S sensors: name length (1 byte, 1..255), UTF-8 name, rate Hz (float64, 1e-6..1e9),
+                  time of tick 0 in seconds (float64, within ±1e12): tick k at the nominal t0 + k / rate
     ...     4     CRC-32 of every header byte before it
     ...     ...   packets as received: length L (1 byte, >= 1) then L bytes
 
@@ -45,6 +45,7 @@ import numpy as np
 
 from mocapkit.errors import MocapFormatError
 from mocapkit.io.atomic import atomic_write_bytes
+from mocapkit.io.numbers import MAX_ABS
 
 MAGIC = b"MKP\x00"
 VERSION = 1
@@ -55,6 +56,12 @@ MAX_POINTS = 127
 _FIXED = struct.Struct("<4sBBBBdI")
 _SENSOR = struct.Struct("<dd")
 TICK_LIMIT = 1 << 32
+#: a sensor's rate in Hz, as the text readers accept it (``imu_columns.RATE_RANGE``)
+RATE_RANGE = (1e-6, 1e9)
+#: the encoder's maximum segment length, samples (``pla.packets.packetise`` accepts 1..2^20)
+SEGMENT_LENGTH_RANGE = (1, 1 << 20)
+#: smallest step between two points' times on a stream's clock (the text readers' ``MIN_STEP``)
+MIN_STEP = 1e-9
 
 
 # ---- smallest-three quantisation ---------------------------------------------------------------
@@ -103,11 +110,17 @@ def crc16(data: bytes) -> int:
 
 @dataclass(frozen=True)
 class Sensor:
-    """One stream of the file: its name, sample rate (tick ``k`` at ``t0 + k / rate`` seconds) and ``t0``."""
+    """One stream of the file: its name, sample rate and ``t0``. The stream's clock is the tick (the index
+    of the sample); ``t0 + k / rate`` (:meth:`nominal_times`) is tick ``k``'s time only for a recording
+    sampled at exactly ``rate`` (docs/mkp.md, "Time")."""
 
     name: str
     rate: float
     t0: float
+
+    def nominal_times(self, ticks: np.ndarray) -> np.ndarray:
+        """``t0 + ticks / rate``: the times the file alone gives its (fractional) ticks."""
+        return self.t0 + np.asarray(ticks, dtype=np.float64) / self.rate
 
 
 @dataclass(frozen=True)
@@ -186,12 +199,60 @@ def _ranges(seqs: list[int]) -> str:
     return ", ".join(out)
 
 
+def header_problem(bits: int, packet_bytes: int, max_angle_deg: float, max_segment_length: int) -> str | None:
+    """What is impossible in the file header's fixed fields (a field named, its value, the range), or ``None``."""
+    if not MIN_BITS <= bits <= MAX_BITS:
+        return f"{bits} bits per component, expected {MIN_BITS}..{MAX_BITS}"
+    if not MIN_PACKET <= packet_bytes <= MAX_PACKET:
+        return f"packets of {packet_bytes} bytes, expected {MIN_PACKET}..{MAX_PACKET}"
+    if not (math.isfinite(max_angle_deg) and 0 < max_angle_deg < 180):
+        return f"the bound {max_angle_deg!r} degrees is not a number of degrees in (0, 180)"
+    if not math.radians(max_angle_deg) > delta_bound(bits):
+        return (f"the bound {max_angle_deg!r} degrees is not above the quantisation bound "
+                f"{math.degrees(delta_bound(bits)):.4g} degrees of {bits} bits (no sender makes it)")
+    lo, hi = SEGMENT_LENGTH_RANGE
+    if not lo <= max_segment_length <= hi:
+        return f"maximum segment length {max_segment_length} samples, expected {lo}..{hi}"
+    return None
+
+
+def sensor_problem(name: str, rate: float, t0: float) -> str | None:
+    """What is impossible in one sensor's header fields (rate, time of tick 0), or ``None``."""
+    lo, hi = RATE_RANGE
+    if not (math.isfinite(rate) and lo <= rate <= hi):
+        return f"sensor {name!r}: rate {rate!r} Hz, expected {lo:g}..{hi:g} Hz"
+    if not (math.isfinite(t0) and abs(t0) <= MAX_ABS):
+        return f"sensor {name!r}: time of tick 0 {t0!r} s, expected a finite time within ±{MAX_ABS:g} s"
+    return None
+
+
+def clock_problem(sensor: Sensor, ticks: np.ndarray) -> str | None:
+    """Whether the points' times on the sensor's nominal clock are what the text readers accept (within
+    ±``MAX_ABS`` s, ``MIN_STEP`` apart): otherwise a points CSV written from them could not be read back."""
+    if len(ticks) == 0:
+        return None
+    t = sensor.nominal_times(ticks)
+    if not abs(float(t[-1])) <= MAX_ABS:
+        return (f"sensor {sensor.name!r}: tick {int(ticks[-1])} at rate {sensor.rate!r} Hz from {sensor.t0!r} s "
+                f"is at {float(t[-1])!r} s, beyond ±{MAX_ABS:g} s")
+    step = np.diff(t)
+    if len(step) and not step.min() >= MIN_STEP:
+        k = int(np.argmin(step)) + 1
+        return (f"sensor {sensor.name!r}: at rate {sensor.rate!r} Hz from {sensor.t0!r} s, tick {int(ticks[k])} is "
+                f"{float(step[k - 1])!r} s after tick {int(ticks[k - 1])}, below {MIN_STEP:g} s (the clock cannot "
+                "tell them apart)")
+    return None
+
+
 def header_bytes(header: Header) -> bytes:
     """The file header (CRC included)."""
-    if not MIN_BITS <= header.bits <= MAX_BITS or not MIN_PACKET <= header.packet_bytes <= MAX_PACKET:
-        raise ValueError("bits or packet bytes out of range")
-    if not 1 <= len(header.sensors) <= 255:
-        raise ValueError("a packet file holds 1..255 sensors")
+    problem = header_problem(header.bits, header.packet_bytes, header.max_angle_deg, header.max_segment_length)
+    if problem is None and not 1 <= len(header.sensors) <= 255:
+        problem = "a packet file holds 1..255 sensors"
+    for s in header.sensors:
+        problem = problem or sensor_problem(s.name, s.rate, s.t0)
+    if problem:
+        raise ValueError(f"header: {problem}")
     out = bytearray(_FIXED.pack(MAGIC, VERSION, header.bits, header.packet_bytes, len(header.sensors),
                                 float(header.max_angle_deg), int(header.max_segment_length)))
     for s in header.sensors:
@@ -247,14 +308,11 @@ def _parse_header(data: bytes, where: str) -> tuple[Header, int]:
     if zlib.crc32(data[:pos]) != crc:
         raise MocapFormatError(where, None, "the header's CRC-32 does not match (corrupt file)")
     # the fields, once the CRC says they are what the writer wrote
-    if not MIN_BITS <= bits <= MAX_BITS:
-        raise MocapFormatError(where, None, f"header: {bits} bits per component, expected {MIN_BITS}..{MAX_BITS}")
-    if not MIN_PACKET <= pbytes <= MAX_PACKET:
-        raise MocapFormatError(where, None, f"header: packets of {pbytes} bytes, expected {MIN_PACKET}..{MAX_PACKET}")
+    problem = header_problem(bits, pbytes, angle, maxlen)
+    if problem:
+        raise MocapFormatError(where, None, f"header: {problem}")
     if n == 0:
         raise MocapFormatError(where, None, "header: no sensor")
-    if not (math.isfinite(angle) and angle > 0):
-        raise MocapFormatError(where, None, f"header: the bound {angle!r} degrees is not a positive number")
     names = set()
     out = []
     for i, (name, k, rate, t0) in enumerate(sensors):
@@ -262,8 +320,9 @@ def _parse_header(data: bytes, where: str) -> tuple[Header, int]:
             raise MocapFormatError(where, None, f"header: sensor {i}'s name is not 1..255 bytes of UTF-8")
         if name in names:
             raise MocapFormatError(where, None, f"header: sensor name {name!r} repeats")
-        if not (math.isfinite(rate) and rate > 0 and math.isfinite(t0)):
-            raise MocapFormatError(where, None, f"header: sensor {name!r} has rate {rate!r} Hz and start {t0!r} s")
+        problem = sensor_problem(name, rate, t0)
+        if problem:
+            raise MocapFormatError(where, None, f"header: {problem}")
         names.add(name)
         out.append(Sensor(name, rate, t0))
     return Header(bits, pbytes, angle, maxlen, tuple(out)), pos + 4
@@ -422,6 +481,9 @@ def read_mkp(path: str | Path, *, data: bytes | None = None) -> PacketFile:
         index += 1
     streams = {}
     for sensor, a in zip(header.sensors, acc):
+        problem = clock_problem(sensor, np.array(a["ticks"], dtype=np.int64))
+        if problem:
+            raise MocapFormatError(where, None, f"header: {problem}")
         codes = np.array(a["codes"], dtype=np.int64).reshape(-1, 4)
         streams[sensor.name] = SensorPoints(
             sensor, np.array(a["ticks"], dtype=np.int64), codes, dequantise(codes, bits),

@@ -56,31 +56,6 @@ def decode_at(ticks: np.ndarray, values: np.ndarray, gap_before: np.ndarray, u: 
     return keep, (np.concatenate(out) if out else np.empty((0, 4)))
 
 
-def refuse_gaps(points: Path) -> None:
-    """Refuse a points CSV written from a ``.mkp`` stream whose ``gap_before`` column marks a lost packet:
-    a SLERP decode of the CSV would bridge the gap (decompress the ``.mkp`` itself, which leaves it out)."""
-    import csv
-
-    from mocapkit.io.atomic import is_device_or_pipe
-
-    if is_device_or_pipe(points):  # read once already: a pipe cannot be read again
-        return
-    try:
-        with open(points, newline="", encoding="utf-8", errors="replace") as fh:
-            rows = csv.reader(fh)
-            head = next(rows, [])
-            if "gap_before" not in head:
-                return
-            col = head.index("gap_before")
-            for line, row in enumerate(rows, start=2):
-                if len(row) > col and row[col].strip() not in ("", "0"):
-                    raise InvalidParameterError(
-                        f"{points}:{line}: this point follows a lost packet (gap_before = {row[col].strip()}); a "
-                        "decode of the points would bridge the gap: decompress the .mkp file itself")
-    except (OSError, csv.Error):
-        return  # the reader has already read it; nothing more to say here
-
-
 def compress_packets_job(path: Path, output: Path, *, max_angle: float | None, method: str = "anglesw",
                          threshold: float | None = None, target_icr: float | None = None, packet_bits: int | None = None,
                          packet_bytes: int = 20, max_segment_length: int | None = None, rate: float | None = None,
@@ -208,7 +183,7 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
     from mocapkit.io import write_signal_csv
     from mocapkit.io.atomic import atomic_write_text, is_device_or_pipe
     from mocapkit.io.imucsv import format_row
-    from mocapkit.io.mkp import read_mkp
+    from mocapkit.io.mkp import MIN_STEP, read_mkp
 
     path, output = Path(path), Path(output)
     pf = read_mkp(path)
@@ -232,13 +207,14 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
     for name, s in pf.streams.items():
         rec = {"name": name, "points": len(s.ticks), "packets": s.packets, "lost_sequence_numbers": s.lost,
                "ended": s.ended, "gaps": int(s.gap_before.sum()), "samples_left_out": 0}
-        r, t0 = s.sensor.rate, s.sensor.t0
+        r = s.sensor.rate
         if len(s.ticks) == 0:
             raise InvalidParameterError(f"{path}: no point of sensor {name} arrived")
         values = _presented(s.values)
-        if originals is None and rate is None:
-            rows = [format_row(t0 + int(k) / r, v) + f",{int(k)},{int(g)}"
-                    for k, v, g in zip(s.ticks.tolist(), values.tolist(), s.gap_before.tolist())]
+        if originals is None and rate is None:  # the clock is the tick column; time = t0 + tick / rate
+            rows = [format_row(t, v) + f",{int(k)},{int(g)}" for t, k, v, g in
+                    zip(s.sensor.nominal_times(s.ticks).tolist(), s.ticks.tolist(), values.tolist(),
+                        s.gap_before.tolist())]
             written[name] = ("points", ",".join(POINT_COLUMNS) + "\n" + "".join(x + "\n" for x in rows))
             records.append(rec)
             continue
@@ -252,13 +228,17 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
                                             f"tick {int(s.ticks[-1])}")
             u = np.arange(n, dtype=np.float64)
             times = orig.times
-        else:
-            span = (float(s.ticks[-1]) - float(s.ticks[0])) / r
-            m = math.floor(span * rate + 1e-9) + 1
+        else:  # a grid on the stream's nominal clock, made in ticks: at --rate = the stream's rate, on every tick
+            step = r / rate
+            m = math.floor((float(s.ticks[-1]) - float(s.ticks[0])) / step + 1e-9) + 1
             if m > 50_000_000:
-                raise InvalidParameterError(f"--rate {rate:g} over {span:g} s gives {m} samples; too many")
-            times = t0 + float(s.ticks[0]) / r + np.arange(m) / rate
-            u = (times - t0) * r
+                raise InvalidParameterError(f"--rate {rate:g} over {(s.ticks[-1] - s.ticks[0]) / r:g} s gives {m} "
+                                            "samples; too many")
+            u = np.minimum(float(s.ticks[0]) + np.arange(m) * step, float(s.ticks[-1]))  # not past it by rounding
+            times = s.sensor.nominal_times(u)
+            if m > 1 and not np.diff(times).min() >= MIN_STEP:
+                raise InvalidParameterError(f"--rate {rate:g}: the grid's steps vanish in the rounding of times near "
+                                            f"{float(times[0]):g} s; give a lower rate")
         keep, vals = decode_at(s.ticks, values, s.gap_before, u)
         rec["samples"] = int(keep.sum())
         rec["samples_left_out"] = int((~keep).sum())
