@@ -405,3 +405,24 @@ def test_the_writer_refuses_what_the_reader_refuses():
               Header(10, 20, 2.0, 0, (Sensor("s", 50.0, 0.0),))):
         with pytest.raises(ValueError, match="header: "):
             header_bytes(h)
+
+
+def test_a_mkp_decoded_against_another_recording_of_the_same_length_is_refused(tmp_path, capsys):
+    """Ticks cannot tell two recordings of equal length apart; the stream's own bound can."""
+    from mocapkit import cli
+
+    def run(args):
+        try:
+            cli.main([str(a) for a in args])
+        except SystemExit as e:
+            return int(e.code or 0)
+        return 0
+
+    pelvis, foot = DATA / "xio" / "pelvis" / "Quaternion.csv", DATA / "xio" / "left-foot" / "Quaternion.csv"
+    mkp = tmp_path / "pelvis.mkp"
+    assert run(["compress", pelvis, "--max-angle", "1", "-o", mkp]) == 0
+    assert run(["decompress", mkp, "-o", tmp_path / "ok.csv", "--times-from", pelvis]) == 0
+    capsys.readouterr()
+    assert run(["decompress", mkp, "-o", tmp_path / "bad.csv", "--times-from", foot]) == 2
+    assert "not made from this recording" in capsys.readouterr().err
+    assert not (tmp_path / "bad.csv").exists()

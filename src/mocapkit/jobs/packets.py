@@ -173,6 +173,24 @@ def _presented(q: np.ndarray) -> np.ndarray:
     return -q if len(q) and q[0, 0] < 0 else q
 
 
+def _check_against_original(decoded: np.ndarray, original: np.ndarray, bound_deg: float, times_from: Path,
+                            name: str) -> None:
+    """Refuse an ORIGINAL the stream was not made from: its decode must lie within the stream's own
+    ``max_angle`` of every sample (a recording of the same length but other motion would pass the tick
+    checks unnoticed)."""
+    from mocapkit.quat import angular_distance
+
+    if not len(decoded):
+        return
+    err = angular_distance(decoded, original / np.linalg.norm(original, axis=1, keepdims=True), degrees=True)
+    worst = int(np.argmax(err))
+    if err[worst] > bound_deg * (1 + 1e-9) + 1e-9:
+        raise InvalidParameterError(
+            f"{times_from}: {name}: the stream decodes {float(err[worst]):.3g} deg away from this recording's "
+            f"sample {worst}, beyond the stream's own bound of {bound_deg:g} deg: it was not made from this "
+            "recording")
+
+
 def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None = None, rate: float | None = None,
                            time_column: str | None = None, quaternion_columns: str | None = None,
                            scalar_last: bool = False, time_unit: str | None = None) -> dict:
@@ -240,6 +258,8 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
                 raise InvalidParameterError(f"--rate {rate:g}: the grid's steps vanish in the rounding of times near "
                                             f"{float(times[0]):g} s; give a lower rate")
         keep, vals = decode_at(s.ticks, values, s.gap_before, u)
+        if originals is not None:
+            _check_against_original(vals, originals[name].values[keep], pf.header.max_angle_deg, times_from, name)
         rec["samples"] = int(keep.sum())
         rec["samples_left_out"] = int((~keep).sum())
         written[name] = ("samples", times[keep], vals)
