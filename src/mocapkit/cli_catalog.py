@@ -73,15 +73,16 @@ def query(
     from rich.table import Table
     from rich.text import Text
 
-    caption = f"{total} row{'s' if total != 1 else ''}"
-    if total > len(shown):
-        caption = f"the first {len(shown)} of {total} rows (--format csv or json writes them all)"
-    tab = Table(caption=caption)
+    cut = total > len(shown)
+    tab = Table(caption=None if cut else f"{total} row{'s' if total != 1 else ''}")
     for c in cols:
         tab.add_column(Text(c), overflow="fold")
     for r in shown:
         tab.add_row(*(Text(printing.cell(v)) for v in r))  # Text: a value is never read as rich markup
     console.print(tab)
+    if cut:
+        console.print(f"the first {len(shown)} of {total} rows shown (--format csv or json writes them all)",
+                      markup=False, highlight=False, soft_wrap=True)
 
 
 @catalog_app.command("import")

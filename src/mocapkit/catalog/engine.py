@@ -363,9 +363,10 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
             raise MocapError(f"{shown}: no such catalog file")
         if not path.parent.is_dir():
             raise MocapError(f"{shown}: the folder {path.parent} does not exist")
-        # read-only: no file but this one (no COPY TO, ATTACH, read_csv, INSTALL/LOAD), settings locked
+        # never a progress bar on stdout (a long query would draw one into the CSV); read-only: no file but
+        # this one (no COPY TO, ATTACH, read_csv, INSTALL/LOAD), and the settings locked
         config = ({"enable_external_access": False, "autoinstall_known_extensions": False,
-                   "autoload_known_extensions": False, "lock_configuration": True} if read_only else {})
+                   "autoload_known_extensions": False} if read_only else {})
         try:
             conn = duckdb.connect(str(path), read_only=read_only, config=config)
         except duckdb.Error as e:
@@ -376,6 +377,10 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
         errors = (duckdb.Error,)
         cat = Catalog(url, "duckdb", conn, errors)
     try:
+        if cat.engine == "duckdb":
+            cat.execute("SET enable_progress_bar = false")  # session settings: not in connect's config
+            if read_only:
+                cat.execute("SET lock_configuration = true")
         cat.ensure_schema(read_only)
     except BaseException:
         cat.close()
