@@ -864,13 +864,15 @@ def test_cli_query_streams_its_rows(tmp_path, fmt):
 def _foreign_duckdb(path: Path, kind: str) -> None:
     import duckdb
 
+    from mocapkit.catalog.schema import SCHEMA_VERSION
+
     c = duckdb.connect(str(path))
     if kind == "no_schema_version":
         c.execute("CREATE TABLE recordings (id INTEGER, name TEXT)")
         c.execute("INSERT INTO recordings VALUES (1, 'theirs')")
     else:  # a schema_version table, and a recordings table of another shape
         c.execute("CREATE TABLE schema_version (version BIGINT)")
-        c.execute("INSERT INTO schema_version VALUES (1)")
+        c.execute(f"INSERT INTO schema_version VALUES ({SCHEMA_VERSION})")
         c.execute("CREATE TABLE recordings (path TEXT, size BIGINT)")
     c.close()
 

@@ -262,20 +262,19 @@ class Catalog:
         """Make the tables when missing (``read_only``: only check); refuse a catalog of another schema
         version, and a database with tables that is not a mocapkit catalog, before writing anything."""
         with self.transaction():
-            tables = self._refuse_foreign()
-            _, rows = self.query("SELECT version FROM schema_version") if "schema_version" in tables else ([], [])
-            if rows and (len(rows) != 1 or rows[0][0] != schema.SCHEMA_VERSION):
+            self._refuse_foreign()
+            if not read_only:
+                for stmt in schema.ddl():
+                    self.execute(stmt)
+            _, rows = self.query("SELECT version FROM schema_version")
+            if not rows and read_only:
+                raise MocapError(f"{redact(self.url)}: an empty catalog (no schema version): nothing to query")
+            if not rows:
+                self.execute("INSERT INTO schema_version (version) VALUES (?)", (schema.SCHEMA_VERSION,))
+            elif len(rows) != 1 or rows[0][0] != schema.SCHEMA_VERSION:
                 raise MocapError(f"{redact(self.url)}: catalog schema version "
                                  f"{', '.join(str(r[0]) for r in rows)}; this mocapkit reads version "
                                  f"{schema.SCHEMA_VERSION}")
-            if read_only:
-                if not rows:
-                    raise MocapError(f"{redact(self.url)}: an empty catalog (no schema version): nothing to query")
-                return
-            for stmt in schema.ddl():
-                self.execute(stmt)
-            if not rows:
-                self.execute("INSERT INTO schema_version (version) VALUES (?)", (schema.SCHEMA_VERSION,))
 
     def _tables(self) -> dict[str, set[str]]:
         """The tables of the catalog's own schema (DuckDB ``main``, PostgreSQL ``current_schema()``) and
@@ -288,29 +287,30 @@ class Catalog:
             out.setdefault(str(t).lower(), set()).add(str(c).lower())
         return out
 
-    def _refuse_foreign(self) -> dict[str, set[str]]:
-        """A database that has tables but no mocapkit ``schema_version``, or a catalog table without the
-        key columns of :data:`schema.PRIMARY_KEYS`, is someone else's: refused, nothing written. Returns
-        the tables found."""
+    def _refuse_foreign(self) -> None:
+        """A database that has tables but no mocapkit ``schema_version``, or (at this schema version) a
+        catalog table without its key columns, is someone else's: refused before anything is written.
+        A catalog of another version is left to the version check."""
         tables = self._tables()
         if not tables:
-            return tables
+            return
         shown = redact(self.url)
-        if "schema_version" not in tables:
+        if "schema_version" not in tables or "version" not in tables["schema_version"]:
             names = ", ".join(sorted(tables)[:5]) + (" ..." if len(tables) > 5 else "")
             raise MocapError(f"{shown}: not a mocapkit catalog (it has tables {names} but no schema_version); "
                              "give a new file or database")
-        need = {"schema_version": ("version",), **PRIMARY_OR_KEY}
-        for table, cols in need.items():
+        _, rows = self.query("SELECT version FROM schema_version")
+        if rows != [(schema.SCHEMA_VERSION,)]:
+            return
+        for table, cols in KEY_COLUMNS.items():
             missing = [c for c in cols if table in tables and c not in tables[table]]
             if missing:
                 raise MocapError(f"{shown}: not a mocapkit catalog: its table {table} has no column "
                                  f"{', '.join(missing)}")
-        return tables
 
 
 #: the columns a catalog table must have to be taken for mocapkit's (its key; metrics has none)
-PRIMARY_OR_KEY = {**schema.PRIMARY_KEYS, "metrics": ("run_id", "name", "value")}
+KEY_COLUMNS = {**schema.PRIMARY_KEYS, "metrics": ("run_id", "name", "value")}
 
 
 def _duckdb_path(url: str) -> str:
