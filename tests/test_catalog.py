@@ -564,3 +564,365 @@ def test_cli_import_reports_files_read_with_warnings(tmp_path, tests_data):
     assert "2 recordings registered (1 with warnings), 0 errors" in out
     for w in warnings:
         assert f"warning: {trc}: {w}" in err
+
+
+# ---------------------------------------------------------------------------------------------------
+# catalog query reads and never writes; it streams; every type prints
+# ---------------------------------------------------------------------------------------------------
+
+
+def _small_catalog(path: Path) -> Path:
+    """A catalog file with one recording (made through the catalog's own insert)."""
+    from mocapkit.catalog.ingest import put_recordings
+
+    with _open(str(path)) as c, c.transaction():
+        put_recordings(c, [({"path": "/data/07_01.bvh", "format": "bvh", "kind": "skeletal", "frames": 60,
+                             "channels": [{"name": "Hips_Xposition", "type": "POS"}]}, "ab" * 32, 10)])
+    return path
+
+
+def _state(path: Path) -> tuple:
+    return path.read_bytes(), path.stat().st_mtime_ns, sorted(os.listdir(path.parent))
+
+
+ATTEMPTS = [
+    "COPY recordings TO '{d}/out.csv'",
+    "COPY (SELECT 1) TO '{d}/motion.duckdb'",
+    "ATTACH '{d}/other.duckdb' AS other",
+    "INSTALL httpfs",
+    "LOAD httpfs",
+    "PRAGMA enable_profiling",
+    "PRAGMA table_info('recordings')",
+    "CREATE TABLE x (a INT)",
+    "CREATE TEMP TABLE x (a INT)",
+    "INSERT INTO recordings (path, content_hash) VALUES ('a', 'b')",
+    "DELETE FROM recordings",
+    "SET enable_external_access = true",
+    "SELECT * FROM read_csv('/etc/passwd')",
+    "SELECT * FROM glob('{d}/*')",
+    "SELECT 1; DELETE FROM recordings",
+    "EXPLAIN ANALYZE DELETE FROM recordings",
+    "CHECKPOINT",
+    "EXPORT DATABASE '{d}/exported'",
+    "DETACH motion",
+    "USE memory",
+]
+
+
+@pytest.mark.parametrize("sql", ATTEMPTS)
+def test_cli_query_never_writes_the_duckdb_file(tmp_path, sql):
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    before = _state(db)
+    code, out, err = cli_run("catalog", "query", "--db", db, sql.format(d=tmp_path))
+    assert code == 2, (code, out, err)
+    assert err.startswith("error: ") and err.count("\n") == 1 and str(db) in err, err
+    assert _state(db) == before  # bytes, mtime and no new file next to it
+
+
+@pytest.mark.parametrize("sql", [
+    "COPY recordings TO '{d}/out.csv'", "SET enable_external_access = true", "ATTACH '{d}/o.duckdb' AS o",
+    "SELECT * FROM read_csv('/etc/passwd')", "LOAD httpfs", "INSERT INTO recordings (path, content_hash) "
+    "VALUES ('a', 'b')",
+])
+def test_duckdb_read_only_connection_refuses_writes_by_itself(tmp_path, sql):
+    """The connection ``catalog query`` opens refuses these even without the statement check."""
+    from mocapkit.catalog import open_catalog
+
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    before = _state(db)
+    with open_catalog(str(db), read_only=True) as c:
+        with pytest.raises(MocapError):
+            c.query(sql.format(d=tmp_path))
+    assert _state(db) == before
+
+
+@pytest.mark.parametrize("sql", [
+    "SHOW TABLES", "DESCRIBE recordings", "EXPLAIN SELECT * FROM recordings", "FROM recordings",
+    "WITH r AS (SELECT path FROM recordings) SELECT * FROM r;", "SELECT path FROM recordings -- a comment",
+    "SUMMARIZE recordings", "VALUES (1)",
+])
+def test_cli_query_reads_in_every_form(tmp_path, sql):
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    before = _state(db)
+    code, out, err = cli_run("catalog", "query", "--db", db, sql, "--format", "json")
+    assert code == 0, err
+    assert json.loads(out)
+    assert _state(db) == before
+
+
+@pytest.mark.parametrize("sql", ["", "   \n\t"])
+def test_cli_empty_query_is_a_usage_error(tmp_path, sql):
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    code, out, err = cli_run("catalog", "query", "--db", db, sql)
+    assert code == 2 and err.startswith("error: ") and err.count("\n") == 1 and "empty" in err, err
+    assert "catalog query --help" in err and out == ""
+
+
+@pytest.mark.parametrize("sql", [";", "-- only a comment", " ; ; "])
+def test_cli_query_without_a_statement_is_refused(tmp_path, sql):
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    code, out, err = cli_run("catalog", "query", "--db", db, sql)
+    assert code == 2 and err.startswith("error: ") and err.count("\n") == 1, err
+
+
+def test_cli_query_refuses_writes_on_postgresql(tmp_path):
+    with _pg_schema() as url:
+        with _open(url) as c:
+            c.execute("INSERT INTO recordings (path, content_hash, kind) VALUES ('a', 'b', 'markers')")
+        for sql in ["DELETE FROM recordings", "CREATE TABLE x (a INT)", "SELECT 1; DELETE FROM recordings",
+                    "WITH d AS (DELETE FROM recordings RETURNING 1) SELECT * FROM d",
+                    "COPY recordings TO STDOUT", "SET default_transaction_read_only = off",
+                    "SELECT set_config('transaction_read_only', 'off', true)", "", ";"]:
+            code, out, err = cli_run("catalog", "query", "--db", url, sql)
+            assert code == 2 and err.startswith("error: ") and err.count("\n") == 1, (sql, err)
+        with _open(url) as c:
+            assert c.query("SELECT path, content_hash FROM recordings")[1] == [("a", "b")]
+            assert c.query("SELECT count(*) FROM information_schema.tables WHERE table_schema = "
+                           "current_schema()")[1] == [(len(TABLES) + 1,)]
+        code, out, err = cli_run("catalog", "query", "--db", url, "SELECT path, path FROM recordings",
+                                 "--format", "json")
+        assert code == 0 and json.loads(out) == [{"path": "a", "path_2": "a"}], err
+
+
+def test_cli_query_while_a_writer_holds_the_file(tmp_path):
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    holder = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(f"""
+            import sys, duckdb
+            c = duckdb.connect({str(db)!r})
+            print("ready", flush=True); sys.stdin.readline()
+        """)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "ready"
+        code, out, err = cli_run("catalog", "query", "--db", db, "SELECT 1")
+        assert code == 2 and "another process" in err and err.count("\n") == 1, err
+    finally:
+        holder.stdin.close()
+        holder.wait(timeout=30)
+
+
+# every DuckDB type: (column, SQL, its JSON value, its CSV text); the table shows the CSV text
+UUID_TEXT = "550e8400-e29b-41d4-a716-446655440000"
+TYPES = [
+    ("dec", "1.25::DECIMAL(10,2)", 1.25, "1.25"),
+    ("dec_big", "12345678901234567890.123456789::DECIMAL(38,9)", "12345678901234567890.123456789",
+     "12345678901234567890.123456789"),
+    ("huge", "170141183460469231731687303715884105727::HUGEINT", 170141183460469231731687303715884105727,
+     "170141183460469231731687303715884105727"),
+    ("uhuge", "340282366920938463463374607431768211455::UHUGEINT", 340282366920938463463374607431768211455,
+     "340282366920938463463374607431768211455"),
+    ("ivl", "INTERVAL '1 month 2 days 3 hours'", "1 month 2 days 03:00:00", "1 month 2 days 03:00:00"),
+    ("ivl_neg", "INTERVAL '-1 year'", "-1 year", "-1 year"),
+    ("uid", f"'{UUID_TEXT}'::UUID", UUID_TEXT, UUID_TEXT),
+    ("blob", "'\\xAA\\x00'::BLOB", "aa00", "aa00"),
+    ("day", "DATE '2024-02-29'", "2024-02-29", "2024-02-29"),
+    ("day_inf", "'infinity'::DATE", "infinity", "infinity"),
+    ("tod", "TIME '12:34:56.5'", "12:34:56.500000", "12:34:56.500000"),
+    ("ts", "TIMESTAMP '2024-01-02 03:04:05.123456'", "2024-01-02T03:04:05.123456", "2024-01-02T03:04:05.123456"),
+    ("ts_whole", "TIMESTAMP '2024-01-02 03:04:05'", "2024-01-02T03:04:05", "2024-01-02T03:04:05"),
+    ("ts_inf", "'-infinity'::TIMESTAMP", "-infinity", "-infinity"),
+    ("ts_ns", "TIMESTAMP_NS '2024-01-02 03:04:05.123456789'", "2024-01-02T03:04:05.123456789",
+     "2024-01-02T03:04:05.123456789"),
+    ("ts_tz", "TIMESTAMPTZ '2024-01-02 03:04:05+00'", None, None),  # checked as an instant below
+    ("lst", "[1, 2, NULL]", [1, 2, None], "[1,2,null]"),
+    ("arr", "[1, 2, 3]::INTEGER[3]", [1, 2, 3], "[1,2,3]"),
+    ("st", f"{{'a': 1.5::DECIMAL(4,2), 'b': INTERVAL 3 DAY, 'c': '{UUID_TEXT}'::UUID}}",
+     {"a": 1.5, "b": "3 days", "c": UUID_TEXT}, f'{{"a":1.50,"b":"3 days","c":"{UUID_TEXT}"}}'),
+    ("mp", "MAP {'k': 1, 'j': 2}", {"k": 1, "j": 2}, '{"k":1,"j":2}'),
+    ("mp_int", "MAP {1: INTERVAL 1 MONTH}", {"1": "1 month"}, '{"1":"1 month"}'),
+    ("mp_list", "MAP {[1]: 'x'}", [{"key": [1], "value": "x"}], '[{"key":[1],"value":"x"}]'),
+    ("nested", "[{'x': [1, 2], 'd': DATE '2024-01-01'}]", [{"x": [1, 2], "d": "2024-01-01"}],
+     '[{"x":[1,2],"d":"2024-01-01"}]'),
+    ("enm", "'happy'::ENUM('sad', 'happy')", "happy", "happy"),
+    ("nan", "'nan'::DOUBLE", "NaN", "nan"),
+    ("inf", "'inf'::DOUBLE", "Infinity", "inf"),
+    ("ninf", "'-inf'::FLOAT", "-Infinity", "-inf"),
+    ("dbl", "0.1::DOUBLE", 0.1, "0.1"),
+    ("flag", "true", True, "True"),
+    ("bits", "'101'::BIT", "101", "101"),
+    ("uni", "union_value(n := 2)", 2, "2"),
+    ("txt", "'a \"quoted\", [b]'", 'a "quoted", [b]', 'a "quoted", [b]'),
+    ("nul", "NULL::INTEGER", None, ""),
+]
+TYPES_SQL = "SELECT " + ", ".join(f"{sql} AS {col}" for col, sql, _, _ in TYPES)
+
+
+def _tz_instant(text: str):
+    import datetime as dt
+
+    t = dt.datetime.fromisoformat(text if text[-3] in "+-" and ":" not in text[-6:] else text)
+    return t.astimezone(dt.timezone.utc)
+
+
+def test_cli_query_prints_every_duckdb_type_as_json(tmp_path):
+    import datetime as dt
+    from decimal import Decimal
+
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    code, out, err = cli_run("catalog", "query", "--db", db, TYPES_SQL, "--format", "json")
+    assert code == 0, err
+    rows = json.loads(out, parse_constant=lambda s: pytest.fail(f"non-strict JSON {s}"))
+    exact = json.loads(out, parse_float=Decimal)[0]
+    (row,) = rows
+    assert list(row) == [c for c, *_ in TYPES]
+    for col, _, want, _ in TYPES:
+        if col == "dec_big":
+            assert exact[col] == Decimal(want)  # every digit, as a JSON number
+        elif col == "ts_tz":
+            assert _tz_instant(row[col]) == dt.datetime(2024, 1, 2, 3, 4, 5, tzinfo=dt.timezone.utc)
+        else:
+            assert row[col] == want, col
+
+
+def test_cli_query_prints_every_duckdb_type_as_csv(tmp_path):
+    import datetime as dt
+
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    code, out, err = cli_run("catalog", "query", "--db", db, TYPES_SQL, "--format", "csv")
+    assert code == 0, err
+    header, line = list(csv.reader(io.StringIO(out)))
+    assert header == [c for c, *_ in TYPES]
+    for (col, _, _, want), got in zip(TYPES, line):
+        if col == "ts_tz":
+            assert _tz_instant(got) == dt.datetime(2024, 1, 2, 3, 4, 5, tzinfo=dt.timezone.utc)
+        else:
+            assert got == want, col
+
+
+@pytest.mark.parametrize("col, sql, want", [(c, s, w) for c, s, _, w in TYPES if c != "ts_tz"])
+def test_cli_query_prints_every_duckdb_type_as_a_table(tmp_path, col, sql, want):
+    db = tmp_path / "motion.duckdb"
+    if not db.exists():
+        _small_catalog(db)
+    code, out, err = cli_run("catalog", "query", "--db", db, f"SELECT {sql} AS {col}")
+    assert code == 0, err
+    flat = "".join(ch for line in out.splitlines() for ch in line.strip("│ ┃") if ch not in "│┃")
+    assert (want or "NULL") in flat.replace(" ", "") or (want or "NULL") in out, out
+
+
+def test_cli_json_keeps_columns_of_one_name(tmp_path):
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    sql = ("SELECT r.path, c.path, c.name, 'x' AS path_2 FROM recordings r "
+           "JOIN channels c ON c.path = r.path AND c.content_hash = r.content_hash")
+    code, out, err = cli_run("catalog", "query", "--db", db, sql, "--format", "json")
+    assert code == 0, err
+    assert json.loads(out) == [{"path": "/data/07_01.bvh", "path_3": "/data/07_01.bvh",
+                                "name": "Hips_Xposition", "path_2": "x"}]
+    assert "path -> path_3" in err
+    code, out, err = cli_run("catalog", "query", "--db", db, sql, "--format", "csv")
+    assert code == 0 and out.splitlines()[0] == "path,path,name,path_2", err
+
+
+def test_cli_query_table_shows_the_first_rows_and_counts_all(tmp_path):
+    from mocapkit.cli_catalog import TABLE_ROWS
+
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    n = TABLE_ROWS + 234
+    code, out, err = cli_run("catalog", "query", "--db", db, f"SELECT i FROM range({n}) t(i) ORDER BY i DESC")
+    assert code == 0, err
+    assert f"the first {TABLE_ROWS} of {n} rows" in out
+    assert f" {n - 1} " in out and f" {n - TABLE_ROWS} " in out and f" {n - TABLE_ROWS - 1} " not in out
+    code, out, err = cli_run("catalog", "query", "--db", db, f"SELECT i FROM range({n}) t(i) ORDER BY i DESC",
+                             "--format", "csv")
+    assert out.splitlines() == ["i"] + [str(i) for i in range(n - 1, -1, -1)]
+
+
+_PEAK = textwrap.dedent("""
+    import atexit, resource, sys
+    atexit.register(lambda: print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, file=sys.stderr))
+    from mocapkit import cli
+    cli.main(["catalog", "query", "--db", sys.argv[1], sys.argv[2], "--format", sys.argv[3]])
+""")
+
+
+def _peak_kb(db: Path, n: int, fmt: str) -> tuple[int, int]:
+    """Peak resident memory (kB) of ``catalog query`` over ``n`` rows in a fresh process, and the lines
+    it wrote."""
+    sql = f"SELECT i, i * 0.5 AS x, 'row ' || i AS s FROM range({n}) t(i)"
+    p = subprocess.Popen([sys.executable, "-c", _PEAK, str(db), sql, fmt], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    lines = 0
+    while chunk := p.stdout.read(1 << 20):
+        lines += chunk.count(b"\n")
+    err = p.stderr.read().decode()
+    assert p.wait(timeout=300) == 0, err
+    return int(err.strip().splitlines()[-1]), lines
+
+
+@pytest.mark.parametrize("fmt", ["csv", "json"])
+def test_cli_query_streams_its_rows(tmp_path, fmt):
+    """Peak memory does not grow with the rows: 1.2 M rows take less than 40 MB more than 0.2 M (all in
+    memory at once they took ~250 MB more)."""
+    db = _small_catalog(tmp_path / "motion.duckdb")
+    small, n_small = _peak_kb(db, 200_000, fmt)
+    large, n_large = _peak_kb(db, 1_200_000, fmt)
+    extra = 1 + (fmt == "json")  # the header; JSON's "[" and "]" lines
+    assert (n_small, n_large) == (200_000 + extra, 1_200_000 + extra)
+    assert large - small < 40_000, (small, large)
+
+
+def _foreign_duckdb(path: Path, kind: str) -> None:
+    import duckdb
+
+    from mocapkit.catalog.schema import SCHEMA_VERSION
+
+    c = duckdb.connect(str(path))
+    if kind == "no_schema_version":
+        c.execute("CREATE TABLE recordings (id INTEGER, name TEXT)")
+        c.execute("INSERT INTO recordings VALUES (1, 'theirs')")
+    else:  # a schema_version table, and a recordings table of another shape
+        c.execute("CREATE TABLE schema_version (version BIGINT)")
+        c.execute(f"INSERT INTO schema_version VALUES ({SCHEMA_VERSION})")
+        c.execute("CREATE TABLE recordings (path TEXT, size BIGINT)")
+    c.close()
+
+
+@pytest.mark.parametrize("kind", ["no_schema_version", "recordings_of_another_shape"])
+def test_a_foreign_duckdb_file_is_refused_before_any_write(tmp_path, tests_data, kind):
+    db = tmp_path / "theirs.duckdb"
+    _foreign_duckdb(db, kind)
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    shutil.copy(tests_data / "bvh" / "walk-meredith-60.bvh", lab / "07_01.bvh")
+    before = _state(db)
+    for args in (["catalog", "import", lab, "--db", db],
+                 ["batch", "info", lab, "--out", tmp_path / "out", "--db", db],
+                 ["catalog", "query", "--db", db, "SELECT * FROM recordings"]):
+        code, out, err = cli_run(*args)
+        assert code == 2, (args, out, err)
+        assert err.startswith("error: ") and "not a mocapkit catalog" in err and err.count("\n") == 1, err
+        assert _state(db) == before, args
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_foreign_postgresql_schema_is_refused_before_any_write():
+    import psycopg
+
+    with _pg_schema() as url:
+        with psycopg.connect(url, autocommit=True) as c:
+            c.execute("CREATE TABLE recordings (id INTEGER, name TEXT)")
+        from mocapkit.catalog import open_catalog
+
+        with pytest.raises(MocapError, match="not a mocapkit catalog"):
+            open_catalog(url)
+        with psycopg.connect(url, autocommit=True) as c:
+            names = c.execute("SELECT table_name FROM information_schema.tables WHERE table_schema = "
+                              "current_schema()").fetchall()
+        assert names == [("recordings",)]
+
+
+def test_query_values_from_postgresql_print(tmp_path):
+    with _pg_schema() as url:
+        _open(url).close()
+        sql = ("SELECT INTERVAL '1 year 2 mons' AS ivl, 'infinity'::date AS day, 'NaN'::numeric AS nnum, "
+               "'-Infinity'::float8 AS ninf, 1.50::numeric(4,2) AS dec, "
+               f"'{UUID_TEXT}'::uuid AS uid, '\\xaa00'::bytea AS b, ARRAY[1, 2] AS arr, "
+               "'{\"a\": 1}'::jsonb AS js, TIMESTAMP '2024-01-02 03:04:05' AS ts")
+        code, out, err = cli_run("catalog", "query", "--db", url, sql, "--format", "json")
+        assert code == 0, err
+        assert json.loads(out) == [{"ivl": "1 year 2 mons", "day": "infinity", "nnum": "NaN", "ninf": "-Infinity",
+                                    "dec": 1.5, "uid": UUID_TEXT, "b": "aa00", "arr": [1, 2], "js": {"a": 1},
+                                    "ts": "2024-01-02T03:04:05"}]
+        code, out, err = cli_run("catalog", "query", "--db", url, sql, "--format", "csv")
+        assert code == 0, err
+        assert list(csv.reader(io.StringIO(out)))[1][:4] == ["1 year 2 mons", "infinity", "nan", "-inf"]

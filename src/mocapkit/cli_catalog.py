@@ -1,22 +1,18 @@
 """``mocapkit catalog query|import``: read the motion catalog with SQL, register recordings without a job.
 
-Thin like ``cli.py``: parse, call :mod:`mocapkit.catalog`, print. Results on stdout (a rich table, CSV or a
-strict JSON list of objects), diagnostics on stderr.
+Thin like ``cli.py``: parse, call :mod:`mocapkit.catalog`, print. Results on stdout as they come (a rich
+table, CSV or a strict JSON array of objects: :mod:`mocapkit.catalog.printing`), diagnostics on stderr.
 """
 
 from __future__ import annotations
 
-import csv
-import datetime as dt
-import io
-import math
 import sys
 from enum import Enum
 from typing import Annotated, Optional
 
 import typer
 
-from mocapkit.cli_options import AsfOpt, _json, _progress, console, err
+from mocapkit.cli_options import AsfOpt, _progress, console, err
 
 catalog_app = typer.Typer(
     add_completion=False,
@@ -35,55 +31,58 @@ class Format(str, Enum):
     json = "json"
 
 
-def _value(v):
-    """A result value for CSV/JSON: times as ISO-8601, everything else as it is."""
-    if isinstance(v, (dt.datetime, dt.date, dt.time)):
-        return v.isoformat()
-    if isinstance(v, (bytes, bytearray, memoryview)):
-        return bytes(v).hex()
-    return v
+#: rows a rich table shows; the rest are counted, not kept (CSV and JSON write every row)
+TABLE_ROWS = 1000
 
 
-def _cell(v) -> str:
-    if v is None:
-        return "NULL"
-    if isinstance(v, float):
-        return repr(v) if math.isfinite(v) else str(v)
-    return str(_value(v))
+def _one_statement(sql: str) -> str:
+    if not sql.strip():
+        raise typer.BadParameter("the query is empty: give one SQL statement")
+    return sql
 
 
 @catalog_app.command("query")
 def query(
-    sql: Annotated[str, typer.Argument(help="One SQL statement, e.g. \"SELECT kind, count(*) FROM recordings "
-                                            "GROUP BY kind\".")],
+    sql: Annotated[str, typer.Argument(help="One SQL statement that reads, e.g. \"SELECT kind, count(*) FROM "
+                                            "recordings GROUP BY kind\".", callback=_one_statement)],
     db: DbOpt,
-    fmt: Annotated[Format, typer.Option("--format", help="table (rich, on stdout), csv, or json (a list of "
-                                                         "objects).")] = Format.table,
+    fmt: Annotated[Format, typer.Option("--format", help="table (rich, on stdout; the first 1000 rows), csv, "
+                                                         "or json (an array of objects, one a line).")] = Format.table,
 ) -> None:
-    """Run one SQL query on the catalog (opened read-only) and print its result."""
-    from mocapkit.catalog import open_catalog
+    """Run one reading SQL statement on the catalog (opened read-only; COPY, ATTACH, INSTALL/LOAD, PRAGMA,
+    SET, DDL and DML are refused) and print its result as it comes."""
+    from mocapkit.catalog import open_catalog, printing
 
-    with open_catalog(db, read_only=True) as cat:
-        cols, rows = cat.query(sql)
-    if fmt is Format.json:
-        print(_json([{c: _value(v) for c, v in zip(cols, r)} for r in rows], "catalog query --format json"))
-    elif fmt is Format.csv:
-        buf = io.StringIO()
-        w = csv.writer(buf, lineterminator="\n")
-        if cols:
-            w.writerow(cols)
-        w.writerows([["" if v is None else _cell(v) for v in r] for r in rows])
-        sys.stdout.write(buf.getvalue())
-    else:
-        from rich.table import Table
-        from rich.text import Text
+    with open_catalog(db, read_only=True) as cat, cat.read(sql) as (cols, chunks):
+        if fmt is Format.json:
+            keys = printing.json_keys(cols)
+            renamed = [f"{c} -> {k}" for c, k in zip(cols, keys) if c != k]
+            if renamed:
+                err.print(f"note: columns of one name get JSON keys {', '.join(renamed)}", markup=False,
+                          highlight=False, soft_wrap=True)
+            printing.write_json(cols, chunks, sys.stdout)
+            return
+        if fmt is Format.csv:
+            printing.write_csv(cols, chunks, sys.stdout)
+            return
+        shown: list[tuple] = []
+        total = 0
+        for rows in chunks:
+            shown += rows[:TABLE_ROWS - len(shown)]
+            total += len(rows)
+    from rich.table import Table
+    from rich.text import Text
 
-        tab = Table(caption=f"{len(rows)} row{'s' if len(rows) != 1 else ''}")
-        for c in cols:
-            tab.add_column(Text(c), overflow="fold")
-        for r in rows:
-            tab.add_row(*(Text(_cell(v)) for v in r))  # Text: a value is never read as rich markup
-        console.print(tab)
+    cut = total > len(shown)
+    tab = Table(caption=None if cut else f"{total} row{'s' if total != 1 else ''}")
+    for c in cols:
+        tab.add_column(Text(c), overflow="fold")
+    for r in shown:
+        tab.add_row(*(Text(printing.cell(v)) for v in r))  # Text: a value is never read as rich markup
+    console.print(tab)
+    if cut:
+        console.print(f"the first {len(shown)} of {total} rows shown (--format csv or json writes them all)",
+                      markup=False, highlight=False, soft_wrap=True)
 
 
 @catalog_app.command("import")

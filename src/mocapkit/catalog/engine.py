@@ -4,7 +4,9 @@
 server, anything else as the path of a DuckDB file (``duckdb:PATH`` also works). :class:`Catalog` hides
 what differs: placeholders (write ``?``; PostgreSQL gets ``%s``), transactions, bulk inserts (DuckDB reads
 an Arrow table, PostgreSQL a ``COPY``) and result values (``Decimal`` → ``float``). The tables are made
-when missing (:mod:`mocapkit.catalog.schema`).
+when missing (:mod:`mocapkit.catalog.schema`); a database that holds tables but is not a mocapkit catalog
+is refused before anything is written to it. :meth:`Catalog.read` runs one read-only query and streams
+its rows (:mod:`mocapkit.catalog.reading`).
 
 Every failure to open — a malformed URL, an unreachable server, a refused login, a DuckDB file locked by
 another process, a folder given as the file, a missing driver — is one :class:`MocapError` naming the URL
@@ -126,6 +128,45 @@ class Catalog:
         return cols, [tuple(_plain(v) for v in r) for r in rows]
 
     @contextlib.contextmanager
+    def read(self, sql: str, chunk_rows: int = 10_000):
+        """Run one read-only statement (a ``SELECT``, ``WITH``, ``VALUES``, ``SHOW``/``DESCRIBE`` or
+        ``EXPLAIN`` of one); yields ``(columns, chunks)``: the column names (duplicates kept) and an
+        iterator of lists of at most ``chunk_rows`` rows, fetched as they are consumed. Anything else — a
+        second statement, ``COPY``, ``ATTACH``, ``INSTALL``/``LOAD``, ``PRAGMA``, ``SET``, DDL or DML —
+        is a :class:`MocapError` before it runs. Values are made printable by the engine where Python's
+        would lose something (:func:`mocapkit.catalog.reading.printable_projection`)."""
+        from mocapkit.catalog import reading
+
+        shown = redact(self.url)
+        with self._reported():
+            if self.engine == "postgresql":
+                reading.use_lenient_loaders(self._conn)
+                with self._conn.transaction():
+                    self._conn.execute("SET TRANSACTION READ ONLY")
+                    # a server-side cursor: DECLARE takes one SELECT/VALUES/TABLE, nothing else
+                    with self._conn.cursor(name="mocapkit_read") as cur:
+                        cur.execute(reading.one_read_statement(sql, shown))
+                        cols = [d.name for d in cur.description or ()]
+                        yield cols, self._chunks(cur, chunk_rows)
+            else:
+                text = reading.one_duckdb_read(self._conn, sql, shown)
+                rel = self._conn.sql(text)  # bound, not run: the names and types of the result
+                cols = list(rel.columns)
+                exprs = reading.printable_projection(rel.types)
+                if exprs:  # positional references: columns of one name stay apart
+                    text = f"SELECT {', '.join(exprs)} FROM (\n{text}\n) AS q"
+                cur = self._conn.execute(text)
+                yield cols, self._chunks(cur, chunk_rows)
+
+    def _chunks(self, cur, chunk_rows: int):
+        while True:
+            with self._reported():
+                rows = cur.fetchmany(chunk_rows)
+            if not rows:
+                return
+            yield rows
+
+    @contextlib.contextmanager
     def transaction(self):
         """Everything inside is committed together, or rolled back on any exception."""
         if self._in_tx:
@@ -219,8 +260,9 @@ class Catalog:
     # -- schema ------------------------------------------------------------------------------------
     def ensure_schema(self, read_only: bool = False) -> None:
         """Make the tables when missing (``read_only``: only check); refuse a catalog of another schema
-        version."""
+        version, and a database with tables that is not a mocapkit catalog, before writing anything."""
         with self.transaction():
+            self._refuse_foreign()
             if not read_only:
                 for stmt in schema.ddl():
                     self.execute(stmt)
@@ -234,6 +276,42 @@ class Catalog:
                                  f"{', '.join(str(r[0]) for r in rows)}; this mocapkit reads version "
                                  f"{schema.SCHEMA_VERSION}")
 
+    def _tables(self) -> dict[str, set[str]]:
+        """The tables of the catalog's own schema (DuckDB ``main``, PostgreSQL ``current_schema()``) and
+        their columns, lower case."""
+        where = ("table_catalog = current_database() AND table_schema = 'main'" if self.engine == "duckdb"
+                 else "table_schema = current_schema()")
+        _, rows = self.query(f"SELECT table_name, column_name FROM information_schema.columns WHERE {where}")
+        out: dict[str, set[str]] = {}
+        for t, c in rows:
+            out.setdefault(str(t).lower(), set()).add(str(c).lower())
+        return out
+
+    def _refuse_foreign(self) -> None:
+        """A database that has tables but no mocapkit ``schema_version``, or (at this schema version) a
+        catalog table without its key columns, is someone else's: refused before anything is written.
+        A catalog of another version is left to the version check."""
+        tables = self._tables()
+        if not tables:
+            return
+        shown = redact(self.url)
+        if "schema_version" not in tables or "version" not in tables["schema_version"]:
+            names = ", ".join(sorted(tables)[:5]) + (" ..." if len(tables) > 5 else "")
+            raise MocapError(f"{shown}: not a mocapkit catalog (it has tables {names} but no schema_version); "
+                             "give a new file or database")
+        _, rows = self.query("SELECT version FROM schema_version")
+        if rows != [(schema.SCHEMA_VERSION,)]:
+            return
+        for table, cols in KEY_COLUMNS.items():
+            missing = [c for c in cols if table in tables and c not in tables[table]]
+            if missing:
+                raise MocapError(f"{shown}: not a mocapkit catalog: its table {table} has no column "
+                                 f"{', '.join(missing)}")
+
+
+#: the columns a catalog table must have to be taken for mocapkit's (its key; metrics has none)
+KEY_COLUMNS = {**schema.PRIMARY_KEYS, "metrics": ("run_id", "name", "value")}
+
 
 def _duckdb_path(url: str) -> str:
     return url[len("duckdb:"):] if url.startswith("duckdb:") else url
@@ -244,8 +322,8 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
 
     ``create=False`` refuses a DuckDB file that does not exist yet (``catalog query`` on a typo'd path)
     instead of making an empty catalog. ``read_only=True`` (``catalog query``) opens it so that a statement
-    cannot change it (DuckDB ``read_only``; PostgreSQL ``default_transaction_read_only``): a guard against
-    a slip, not a permission. Raises :class:`MocapError` naming the URL (password hidden).
+    cannot change it (DuckDB ``read_only`` with external access disabled and the configuration locked;
+    PostgreSQL ``default_transaction_read_only``): a guard against a slip, not a permission. Raises :class:`MocapError` naming the URL (password hidden).
     """
     if read_only:
         create = False
@@ -285,8 +363,12 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
             raise MocapError(f"{shown}: no such catalog file")
         if not path.parent.is_dir():
             raise MocapError(f"{shown}: the folder {path.parent} does not exist")
+        # never a progress bar on stdout (a long query would draw one into the CSV); read-only: no file but
+        # this one (no COPY TO, ATTACH, read_csv, INSTALL/LOAD), and the settings locked
+        config = ({"enable_external_access": False, "autoinstall_known_extensions": False,
+                   "autoload_known_extensions": False} if read_only else {})
         try:
-            conn = duckdb.connect(str(path), read_only=read_only)
+            conn = duckdb.connect(str(path), read_only=read_only, config=config)
         except duckdb.Error as e:
             text = _clean(e, url)
             if "lock" in text.lower():
@@ -295,6 +377,10 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
         errors = (duckdb.Error,)
         cat = Catalog(url, "duckdb", conn, errors)
     try:
+        if cat.engine == "duckdb":
+            cat.execute("SET enable_progress_bar = false")  # session settings: not in connect's config
+            if read_only:
+                cat.execute("SET lock_configuration = true")
         cat.ensure_schema(read_only)
     except BaseException:
         cat.close()
