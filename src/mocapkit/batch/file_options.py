@@ -311,6 +311,10 @@ def _for_kind(key: str, path: Path, kind: str) -> bool:
     return True
 
 
+#: the kinds of input each option is for (a per-file option given to another kind is reported)
+_KIND_FOR = {"rate": "skeletons and IMU data", "asf": "AMC takes", "unit_cm": "skeletons",
+             "time_column": "IMU text files", "quaternion_columns": "IMU text files", "scalar_last": "IMU text files",
+             "time_unit": "IMU text files", "max_angle": "IMU data", "max_position_error": "skeletons"}
 _KIND_WORD = {"imu": "IMU data", "skeletal": "a skeleton", "markers": "a marker file", "table": "an OpenSim table"}
 
 
@@ -346,7 +350,7 @@ def resolve(job: str, path: str | os.PathLike[str], options: dict, manifest: Man
         files.append(key)
     try:
         kind = kind_of(path)
-    except (OSError, Exception):  # noqa: BLE001 - unreadable: the job reports it
+    except Exception:  # noqa: BLE001 - unreadable or unknown: the job reports it
         kind = "unknown"
     out, notes = dict(options), []
     source: dict[str, str | None] = {k: None for k in options}  # None: the command's option
@@ -389,9 +393,3 @@ def resolve(job: str, path: str | os.PathLike[str], options: dict, manifest: Man
         if found is not None:
             files.append(os.fspath(found))
     return FileOptions(out, notes, files)
-
-
-_KIND_FOR = {"rate": "skeletons and IMU data", "asf": "AMC takes", "unit_cm": "skeletons",
-             "time_column": "IMU text files", "quaternion_columns": "IMU text files", "scalar_last": "IMU text files",
-             "time_unit": "IMU text files", "max_angle": "IMU data", "max_position_error": "skeletons"}
-
