@@ -16,6 +16,8 @@ import uuid
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from mocapkit import cli
 
@@ -405,3 +407,70 @@ def test_version_1_catalog_is_upgraded_keeping_its_rows(catalog_url, tmp_path, t
     shutil.copy(tests_data / "cmu" / "86.asf", tree / "86.asf")
     assert run("batch", "info", tree, "--out", tmp_path / "o", "--db", catalog_url, "-j", 1)[0] == 0
     assert len(query(catalog_url, "SELECT path FROM recordings")) == 2
+
+
+def test_compress_with_bounds_only_in_the_manifest_skips_the_files_without_one(tmp_path, tests_data):
+    tree = tmp_path / "tree"
+    tree.mkdir()
+    shutil.copy(tests_data / "formats" / "ngimu.csv", tree / "ngimu.csv")
+    shutil.copy(tests_data / "bvh" / "walk-meredith-60.bvh", tree / "walk.bvh")
+    (tree / "m.toml").write_text('[[files]]\nglob = "*.csv"\nmax_angle = 1.5\n')
+    code, out, err = run("batch", "compress", tree, "--manifest", tree / "m.toml", "--out", tmp_path / "o", "-j", 1)
+    assert code == 0, out + err
+    assert f"{tree / 'walk.bvh'}: no bound for this file" in out
+    rows = rows_by_name(tmp_path / "o")
+    assert set(rows) == {"ngimu.csv"}
+    assert [o["bound"] for o in record(rows["ngimu.csv"])["outputs"]] == [1.5]
+    # without a manifest, the command still asks for a control
+    code, _, err = run("batch", "compress", tree, "--out", tmp_path / "p")
+    assert code == 2 and "exactly one of" in err
+
+
+# --------------------------------------------------------------------------------------------------
+# precedence as a property: sidecar > last matching manifest entry > the command's option; a file's own
+# clock over all of them
+# --------------------------------------------------------------------------------------------------
+
+RATES = st.one_of(st.none(), st.sampled_from([25.0, 50.0, 60.0, 100.0, 120.0]))
+NAMES = ("86_01.amc", "legacy.csv", "ngimu.csv", "walk.bvh")
+OWN_CLOCK = {"ngimu.csv": "its time column 'Time (s)'", "walk.bvh": "its Frame Time"}
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(command=RATES, entries=st.lists(st.tuples(st.sampled_from(["*", *NAMES]), RATES), max_size=3),
+       sidecars=st.fixed_dictionaries({n: RATES for n in NAMES}))
+def test_rate_precedence_property(tmp_path, tests_data, command, entries, sidecars):
+    from mocapkit.batch.file_options import load_manifest, resolve
+
+    tree = tmp_path / "prop"
+    if not tree.exists():
+        tree.mkdir()
+        shutil.copy(tests_data / "cmu" / "86_01_first60.amc", tree / "86_01.amc")
+        shutil.copy(tests_data / "cmu" / "86.asf", tree / "86.asf")
+        shutil.copy(tests_data / "formats" / "legacy_xio.csv", tree / "legacy.csv")
+        shutil.copy(tests_data / "formats" / "ngimu.csv", tree / "ngimu.csv")
+        shutil.copy(tests_data / "bvh" / "walk-meredith-60.bvh", tree / "walk.bvh")
+    text = "".join(f'[[files]]\n{"glob" if g == "*" else "path"} = "{g}"\n' + (f"rate = {r}\n" if r else "")
+                   for g, r in entries)
+    (tree / "m.toml").write_text(text)
+    for n, r in sidecars.items():
+        side = tree / (Path(n).stem + ".mocapkit.toml")
+        side.unlink(missing_ok=True)
+        if r is not None:
+            side.write_text(f"rate = {r}\n")
+    manifest = load_manifest(tree / "m.toml")
+    for n in NAMES:
+        fo = resolve("info", tree / n, {"rate": command, "asf": None}, manifest)
+        wanted = sidecars[n]
+        if wanted is None:
+            wanted = next((r for g, r in reversed(entries) if g in ("*", n) and r is not None), command)
+        if n in OWN_CLOCK:
+            assert fo.options["rate"] is None
+            if wanted is None:
+                assert fo.notes == []
+            else:
+                (note,) = fo.notes
+                assert note.startswith((f"--rate {wanted:g} not used", f"rate = {wanted:g} ("))
+                assert note.endswith(f"not used: the file gives {OWN_CLOCK[n]}")
+        else:
+            assert fo.options["rate"] == wanted and fo.notes == []

@@ -37,6 +37,8 @@ from mocapkit.batch.worker import configure_numba_cache, failed_row, ignore_inte
 from mocapkit.errors import InvalidParameterError, MocapError
 
 ENGINES = ("local", "dask")
+#: a compress job's controls (one per input: a batch may give them per kind or per file)
+CONTROLS = ("threshold", "target_icr", "max_angle", "max_position_error")
 #: the error of an input whose worker process died while running it (alone in its own pool)
 WORKER_DIED = "the worker process died while processing this input (it crashed or was killed)"
 
@@ -322,10 +324,14 @@ def _read_by_job(job: str, found, per_file: dict) -> list[Path]:
 
     keep = []
     for f in found.files:
+        opts = per_file[f].options
         try:
-            why = not_read_by(job, f, per_file[f].options)
+            why = not_read_by(job, f, opts)
         except (OSError, MocapError):  # unreadable: the job reports it in its row
             why = None
+        if why is None and job == "compress" and all(opts.get(k) is None for k in CONTROLS):
+            why = ("no bound for this file: give --max-angle (IMU data), --max-position-error (skeletons), "
+                   "--threshold or --target-icr, or the bound in the manifest or a sidecar")
         if why is None:
             keep.append(f)
         else:

@@ -82,10 +82,6 @@ def not_read_by(job: str, path: str | Path, options: dict | None = None) -> str 
     if job == "compress" and kind == "imu" and options.get("max_position_error") is not None \
             and options.get("max_angle") is None:
         return "--max-position-error is a bound for skeletons; IMU data takes --max-angle DEG"
-    if job == "compress" and all(options.get(k) is None for k in ("threshold", "target_icr", "max_angle",
-                                                                  "max_position_error")):
-        return ("no bound for this file: give --max-angle (IMU data), --max-position-error (skeletons), "
-                "--threshold or --target-icr, or the bound in a manifest or sidecar")
     if kind == "imu" and path.is_file() and path.suffix.lower() in (".csv", ".txt", ".tsv"):
         from mocapkit.io.imu_columns import ColumnOptions
         from mocapkit.io.imucsv import detect_format
