@@ -31,6 +31,7 @@ an ``asf`` that is not a readable regular file, a glob that matches nothing is o
 
 from __future__ import annotations
 
+import functools
 import glob as globlib
 import math
 import os
@@ -266,12 +267,13 @@ class FileOptions:
     files: list[str] = field(default_factory=list)
 
 
-def _job_keys(job: str) -> set[str]:
+@functools.lru_cache(maxsize=None)
+def _job_keys(job: str) -> frozenset[str]:
     import inspect
 
     from mocapkit.jobs import JOBS
 
-    return set(inspect.signature(JOBS[job]).parameters)
+    return frozenset(inspect.signature(JOBS[job]).parameters)
 
 
 def _states(key: str, path: Path, kind: str, options: dict) -> str | None:
