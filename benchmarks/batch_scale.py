@@ -40,7 +40,7 @@ finally:
 
 QUERY = """SELECT rec.subject, ru.method, avg(m.value) AS mean_aad_deg, count(*) AS n
 FROM metrics m JOIN runs ru ON ru.run_id = m.run_id
-JOIN recordings rec ON rec.path = ru.path AND rec.content_hash = ru.content_hash
+JOIN recordings rec ON rec.path = ru.path AND rec.content_hash = ru.content_hash AND rec.reading_hash = ru.reading_hash
 WHERE m.name = 'aad_deg' AND ru.status = 'ok'
 GROUP BY rec.subject, ru.method ORDER BY rec.subject, ru.method"""
 

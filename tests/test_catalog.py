@@ -143,7 +143,7 @@ def _counts(url) -> dict:
 MEAN_ERROR = """
 SELECT rec.subject, ru.method, avg(m.value) AS mean_aad_deg, count(*) AS n
 FROM runs ru
-JOIN recordings rec ON rec.path = ru.path AND rec.content_hash = ru.content_hash
+JOIN recordings rec ON rec.path = ru.path AND rec.content_hash = ru.content_hash AND rec.reading_hash = ru.reading_hash
 JOIN metrics m ON m.run_id = ru.run_id
 WHERE ru.job = 'compress' AND m.name = 'aad_deg'
 GROUP BY rec.subject, ru.method

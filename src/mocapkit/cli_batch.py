@@ -46,6 +46,10 @@ ResumeOpt = Annotated[bool, typer.Option(
                      "run the rest.")]
 DbOpt = Annotated[Optional[str], typer.Option(
     "--db", help="Also add the rows to a motion catalog: motion.duckdb or postgresql://...")]
+ManifestOpt = Annotated[Optional[Path], typer.Option(
+    "--manifest", help="Options per file: a TOML file of [[files]] tables (glob = \"cmu/*.amc\", rate = 120, "
+                       "asf = \"cmu/86.asf\"...). A TAKE.mocapkit.toml beside an input wins over it; the command's "
+                       "options only fill in what a file lacks (a file's own clock or skeleton always wins).")]
 
 
 def _abs(p: Optional[Path | str]) -> Optional[str]:
@@ -87,7 +91,7 @@ def _progress():
 
 
 def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: Optional[int], engine: str,
-         scheduler: Optional[str], resume: bool, db: Optional[str]) -> None:
+         scheduler: Optional[str], resume: bool, db: Optional[str], manifest: Optional[Path]) -> None:
     from mocapkit.batch import run_batch
     from mocapkit.batch.engine import BatchInterrupted, hold_interrupts
 
@@ -95,7 +99,7 @@ def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: Optional[i
     report, close = _progress()
     try:
         res = run_batch(job, inputs, options, out, jobs=n, engine=engine, scheduler=scheduler, resume=resume,
-                        db=db, report=report)
+                        db=db, report=report, manifest=manifest)
     except BatchInterrupted as e:
         hold_interrupts()  # exiting: a further Ctrl-C must not kill the process before it says how to resume
         close()
@@ -168,11 +172,12 @@ def batch_info(
     scheduler: SchedulerOpt = None,
     resume: ResumeOpt = False,
     db: DbOpt = None,
+    manifest: ManifestOpt = None,
 ) -> None:
     """Describe every recording (the record of ``mocapkit info --json``)."""
     options = {"asf": _abs(asf), "rate": rate, "time_column": time_column, "quaternion_columns": quaternion_columns,
                "scalar_last": scalar_last, "time_unit": time_unit, "strict": strict}
-    _run("info", inputs, options, out, jobs, engine, scheduler, resume, db)
+    _run("info", inputs, options, out, jobs, engine, scheduler, resume, db, manifest)
 
 
 @batch_app.command("compress")
@@ -203,19 +208,24 @@ def batch_compress(
     scheduler: SchedulerOpt = None,
     resume: ResumeOpt = False,
     db: DbOpt = None,
+    manifest: ManifestOpt = None,
 ) -> None:
     """Compress every recording: IMU points to OUT/.../<stem>.points/, skeletons to OUT/.../<stem>.glb
-    (or <stem>.mkc with --skeletal-format mkc)."""
-    if sum(x is not None for x in (threshold, target_icr, max_angle, max_position_error)) != 1:
+    (or <stem>.mkc with --skeletal-format mkc). --max-angle bounds the IMU data and --max-position-error the
+    skeletons of the same batch."""
+    given = [x is not None for x in (threshold, target_icr, max_angle, max_position_error)]
+    both_bounds = given == [False, False, True, True]
+    if sum(given) != 1 and not both_bounds and not (manifest is not None and not any(given)):
         raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-angle (IMU input) or "
-                                    "--max-position-error (skeletal input)")
+                                    "--max-position-error (skeletal input); --max-angle and --max-position-error "
+                                    "may go together (each bounds its kind), and a --manifest may give the bounds")
     options = {"method": method.value, "threshold": threshold, "target_icr": target_icr, "max_angle": max_angle,
                "max_segment_length": max_segment_length, "rate": rate, "time_column": time_column,
                "quaternion_columns": quaternion_columns, "scalar_last": scalar_last, "time_unit": time_unit,
                "asf": _abs(asf), "max_position_error": max_position_error, "unit_cm": unit_cm, "strict": strict,
                "skeletal_format": skeletal_format, "error_metric": error_metric.value, "shell_distance": shell_distance,
                "gltf_rotations": gltf_rotations.value}
-    _run("compress", inputs, options, out, jobs, engine, scheduler, resume, db)
+    _run("compress", inputs, options, out, jobs, engine, scheduler, resume, db, manifest)
 
 
 @batch_app.command("filter")
@@ -233,13 +243,14 @@ def batch_filter(
     scheduler: SchedulerOpt = None,
     resume: ResumeOpt = False,
     db: DbOpt = None,
+    manifest: ManifestOpt = None,
 ) -> None:
     """Filter every marker file or time table: values to OUT/.../<stem>.filtered.csv (.filtered.c3d)."""
     if (penalty is None) == (not auto):
         raise InvalidParameterError("give exactly one of --penalty K or --auto")
     options = {"order": order, "penalty": penalty, "auto": auto, "solver": solver.value, "markers": markers,
                "columns": columns}
-    _run("filter", inputs, options, out, jobs, engine, scheduler, resume, db)
+    _run("filter", inputs, options, out, jobs, engine, scheduler, resume, db, manifest)
 
 
 @batch_app.command("segment")
@@ -260,13 +271,14 @@ def batch_segment(
     scheduler: SchedulerOpt = None,
     resume: ResumeOpt = False,
     db: DbOpt = None,
+    manifest: ManifestOpt = None,
 ) -> None:
     """Cut every BVH/AMC take into actions (the record of ``mocapkit segment --json``)."""
     train_abs = None if not train else [
         "=".join(_abs(x.strip()) for x in item.split("=", 1)) for item in train]
     options = {"asf": _abs(asf), "method": method.value, "joint": joint or None, "train": train_abs, "rate": rate,
                "downsample": downsample, "labels_beside": labels_beside}
-    _run("segment", inputs, options, out, jobs, engine, scheduler, resume, db)
+    _run("segment", inputs, options, out, jobs, engine, scheduler, resume, db, manifest)
 
 
 @batch_app.command("verify")
@@ -295,6 +307,7 @@ def batch_verify(
     scheduler: SchedulerOpt = None,
     resume: ResumeOpt = False,
     db: DbOpt = None,
+    manifest: ManifestOpt = None,
 ) -> None:
     """Check every output of an earlier `batch compress ... --out COMPRESSED` against its input (the record of
     ``mocapkit verify --json``); the summary counts the pairs beyond the bound (exit 1 when any is)."""
@@ -306,4 +319,4 @@ def batch_verify(
                "shell_distance": shell_distance, "skeletal_format": skeletal_format, "unit_cm": unit_cm,
                "asf": _abs(asf), "rate": rate, "time_column": time_column, "quaternion_columns": quaternion_columns,
                "scalar_last": scalar_last, "time_unit": time_unit, "strict": strict}
-    _run("verify", inputs, options, out, jobs, engine, scheduler, resume, db)
+    _run("verify", inputs, options, out, jobs, engine, scheduler, resume, db, manifest)

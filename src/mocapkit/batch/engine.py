@@ -20,6 +20,7 @@ Engines (both yield rows as inputs finish):
 
 from __future__ import annotations
 
+import itertools
 import os
 import time
 from collections import deque
@@ -27,13 +28,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Iterator
 
+from mocapkit.jobs import batch_output
 from mocapkit.jobs.inputs import expand_inputs, output_bases
+from mocapkit.batch.output_guard import OutputGuard
 from mocapkit.batch.journal import JOURNAL_NAME, Journal, read_journal
 from mocapkit.batch.results import RESULTS_NAME, read_results, write_results
 from mocapkit.batch.worker import configure_numba_cache, failed_row, ignore_interrupts, options_hash, run_one
 from mocapkit.errors import InvalidParameterError, MocapError
 
 ENGINES = ("local", "dask")
+#: a compress job's controls (one per input: a batch may give them per kind or per file)
+CONTROLS = ("threshold", "target_icr", "max_angle", "max_position_error")
 #: the error of an input whose worker process died while running it (alone in its own pool)
 WORKER_DIED = "the worker process died while processing this input (it crashed or was killed)"
 
@@ -53,8 +58,12 @@ class BatchInterrupted(KeyboardInterrupt):
 
 @dataclass
 class Task:
+    """One input to run: its output ``base``, its own ``options`` and the ``notes`` its record gets."""
+
     path: Path
     base: Path
+    options: dict
+    notes: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -131,52 +140,72 @@ def previous_rows(out: Path) -> list[dict]:
 
 def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out: str | os.PathLike[str], *,
               jobs: int = 1, engine: str = "local", scheduler: str | None = None, resume: bool = False,
-              db: str | None = None, report: Report | None = None) -> BatchResult:
+              db: str | None = None, report: Report | None = None,
+              manifest: str | os.PathLike[str] | None = None) -> BatchResult:
     """Run ``job`` with ``options`` on every input and return the :class:`BatchResult`.
 
-    ``inputs`` are expanded by :func:`mocapkit.jobs.inputs.expand_inputs`; each input's output goes to
-    ``mocapkit.jobs.batch_output(job, path, options, OUT/<relative dir>/<stem>)``. ``resume=True`` keeps
-    the ok rows of an earlier batch in ``out`` whose job, input, content hash and options hash match, and
-    runs the rest. Every usage error is raised before any work.
+    ``inputs`` are expanded by :func:`mocapkit.jobs.inputs.expand_inputs`; each input runs with its own
+    options (:func:`mocapkit.batch.file_options.resolve`: ``manifest``, its sidecar, what the file states)
+    and its output goes to ``mocapkit.jobs.batch_output(job, path, its options, OUT/<relative dir>/<stem>)``,
+    unless that output is (a link to) an input of the batch or a file read with one (an error row).
+    ``resume=True`` keeps the ok rows of an earlier batch in ``out`` whose job, input, content hash and
+    options hash match, and runs the rest. Every usage error (a bad manifest or sidecar too) is raised
+    before any work.
     """
     from mocapkit.jobs import check_options as check_job_options
+    from mocapkit.batch.file_options import load_manifest
 
     t0 = time.perf_counter()
     check_options(job, engine, jobs, scheduler)
-    check_job_options(job, options)
+    check_job_options(job, options, per_file=True)
     out = Path(os.path.abspath(out))
     if out.exists() and not out.is_dir():
         raise InvalidParameterError(f"--out {out}: not a folder")
     _refuse_inputs_in_out(inputs, out)
+    man = None if manifest is None else load_manifest(manifest)
     found = expand_inputs(list(inputs), out)
-    found.files = _read_by_job(job, found, options)
+    if man is not None:  # in the tree: named for what it is
+        found.skipped = [(p, "the batch's manifest" if p == str(man.path) else why) for p, why in found.skipped]
+    per_file = _per_file(job, found.files, options, man)
+    found.files = _read_by_job(job, found, per_file)
     previous = previous_rows(out) if resume and out.is_dir() else []
     if not found.files:
         why = "; ".join(f"{p}: {w}" for p, w in found.skipped[:3]) + (" ..." if len(found.skipped) > 3 else "")
         raise InvalidParameterError(f"no input that {job} reads" + (f" (skipped: {why})" if why else ""))
     catalog = _open_catalog(db) if db is not None else None
     out = _prepare_out(out)
-    ohash = options_hash(options)
     kept: dict[Path, dict] = {}
     if resume:
         done = {}
         for r in previous:
-            if r.get("job") == job and r.get("options_hash") == ohash:
-                done[r["input"]] = r if r.get("status") == "ok" else None
+            if r.get("job") == job:
+                done[(r["input"], r.get("options_hash"))] = r if r.get("status") == "ok" else None
         for f in found.files:
-            r = done.get(str(f))
+            r = done.get((str(f), options_hash(per_file[f].options)))
             if r is not None and r.get("content_hash") and _hash_or_none(f) == r["content_hash"]:
                 kept[f] = r
     bases = output_bases(found.files, out)
-    tasks = [Task(f, bases[f]) for f in found.files if f not in kept]
+    guard = OutputGuard([*found.files, *(p for p, _ in found.skipped), *([] if man is None else [man.path]),
+                         *(x for fo in per_file.values() for x in fo.files)])
+    tasks, refused = [], []
+    for f in found.files:
+        if f in kept:
+            continue
+        fo = per_file[f]
+        output = batch_output(job, f, fo.options, bases[f], make=False)
+        problem = None if output is None else guard.problem(output)
+        if problem is None:
+            tasks.append(Task(f, bases[f], fo.options, fo.notes))
+        else:
+            refused.append(failed_row(job, f, fo.options, problem))
     cache = configure_numba_cache()
     rows = list(kept.values())
     total, n_err = len(found.files), 0
     journal = Journal(out / JOURNAL_NAME, fresh=not resume)
     feed = _CatalogFeed(catalog, rows)  # the rows kept by --resume first, then the new ones as they come
-    runner = _local(job, tasks, options, jobs) if engine == "local" else _dask(job, tasks, options, jobs, scheduler)
+    runner = _local(job, tasks, jobs) if engine == "local" else _dask(job, tasks, jobs, scheduler)
     try:
-        for row in runner:
+        for row in itertools.chain(refused, runner):
             journal.append(row)
             rows.append(row)
             feed.add(row)
@@ -280,17 +309,29 @@ def _refuse_inputs_in_out(inputs, out: Path) -> None:
                                         "(the outputs mirror their tree under it)")
 
 
-def _read_by_job(job: str, found, options: dict) -> list[Path]:
-    """The inputs ``job`` reads; the others join ``found.skipped`` with the reason
+def _per_file(job: str, files: list[Path], options: dict, manifest) -> dict:
+    """Each input's :class:`~mocapkit.batch.file_options.FileOptions` (a bad sidecar raises, before any work)."""
+    from mocapkit.batch.file_options import resolve
+
+    sidecars: dict = {}
+    return {f: resolve(job, f, options, manifest, sidecars) for f in files}
+
+
+def _read_by_job(job: str, found, per_file: dict) -> list[Path]:
+    """The inputs ``job`` reads (with their own options); the others join ``found.skipped`` with the reason
     (:func:`mocapkit.jobs.not_read_by`: ``segment`` on a C3D file, ``compress`` on markers...)."""
     from mocapkit.jobs import not_read_by
 
     keep = []
     for f in found.files:
+        opts = per_file[f].options
         try:
-            why = not_read_by(job, f, options)
+            why = not_read_by(job, f, opts)
         except (OSError, MocapError):  # unreadable: the job reports it in its row
             why = None
+        if why is None and job == "compress" and all(opts.get(k) is None for k in CONTROLS):
+            why = ("no bound for this file: give --max-angle (IMU data), --max-position-error (skeletons), "
+                   "--threshold or --target-icr, or the bound in the manifest or a sidecar")
         if why is None:
             keep.append(f)
         else:
@@ -310,7 +351,11 @@ def _context():
     return ctx
 
 
-def _local(job: str, tasks: list[Task], options: dict, n: int) -> Iterator[dict]:
+def _submit(pool, job: str, t: Task, **kw):
+    return pool.submit(run_one, job, str(t.path), t.options, str(t.base), t.notes, **kw)
+
+
+def _local(job: str, tasks: list[Task], n: int) -> Iterator[dict]:
     """The local engine: a process pool of ``n`` workers (see the module docstring)."""
     from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -327,7 +372,7 @@ def _local(job: str, tasks: list[Task], options: dict, n: int) -> Iterator[dict]
             while pending and len(inflight) < 2 * n:
                 t = pending.popleft()
                 try:
-                    inflight[pool.submit(run_one, job, str(t.path), options, str(t.base))] = t
+                    inflight[_submit(pool, job, t)] = t
                 except BrokenProcessPool:  # a worker died since the last wait: this input never ran
                     pending.appendleft(t)
                     broken = True
@@ -342,8 +387,8 @@ def _local(job: str, tasks: list[Task], options: dict, n: int) -> Iterator[dict]
                     except BrokenProcessPool:
                         suspects.append(t)
                     except Exception as e:  # noqa: BLE001 - e.g. a result that could not be sent back
-                        yield failed_row(job, t.path, options, f"the worker could not run this input: "
-                                                               f"{type(e).__name__}: {e}")
+                        yield failed_row(job, t.path, t.options, f"the worker could not run this input: "
+                                                                 f"{type(e).__name__}: {e}")
             if broken or suspects:  # the pool is broken: every input in flight fails with it
                 for f in wait(inflight).done:
                     t = inflight.pop(f)
@@ -356,7 +401,7 @@ def _local(job: str, tasks: list[Task], options: dict, n: int) -> Iterator[dict]
                 if idle_breaks > 3:
                     raise MocapError("the process pool breaks with no input running: "
                                      "workers cannot start on this machine")
-                yield from _isolated(job, suspects, options, n, ctx)
+                yield from _isolated(job, suspects, n, ctx)
                 pool = _pool(n, ctx)
         finished = True
     finally:
@@ -382,7 +427,7 @@ def _stop(pool) -> None:
     pool.shutdown(wait=False, cancel_futures=True)
 
 
-def _isolated(job: str, tasks: list[Task], options: dict, n: int, ctx) -> Iterator[dict]:
+def _isolated(job: str, tasks: list[Task], n: int, ctx) -> Iterator[dict]:
     """Run each of ``tasks`` in a pool of its own (``n`` at a time): an input whose worker dies is named."""
     from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -394,17 +439,17 @@ def _isolated(job: str, tasks: list[Task], options: dict, n: int, ctx) -> Iterat
             while pending and len(running) < n:
                 t = pending.popleft()
                 pool = _pool(1, ctx)
-                running[pool.submit(run_one, job, str(t.path), options, str(t.base))] = (t, pool)
+                running[_submit(pool, job, t)] = (t, pool)
             done, _ = wait(running, return_when=FIRST_COMPLETED)
             for f in done:
                 t, pool = running.pop(f)
                 try:
                     row = f.result()
                 except BrokenProcessPool:
-                    row = failed_row(job, t.path, options, WORKER_DIED)
+                    row = failed_row(job, t.path, t.options, WORKER_DIED)
                 except Exception as e:  # noqa: BLE001
-                    row = failed_row(job, t.path, options, f"the worker could not run this input: "
-                                                           f"{type(e).__name__}: {e}")
+                    row = failed_row(job, t.path, t.options, f"the worker could not run this input: "
+                                                             f"{type(e).__name__}: {e}")
                 pool.shutdown(wait=True)
                 yield row
     finally:
@@ -412,7 +457,7 @@ def _isolated(job: str, tasks: list[Task], options: dict, n: int, ctx) -> Iterat
             _stop(pool)
 
 
-def _dask(job: str, tasks: list[Task], options: dict, n: int, scheduler: str | None) -> Iterator[dict]:
+def _dask(job: str, tasks: list[Task], n: int, scheduler: str | None) -> Iterator[dict]:
     """The Dask engine: the same :func:`run_one` on a cluster (see the module docstring)."""
     import logging
 
@@ -428,15 +473,14 @@ def _dask(job: str, tasks: list[Task], options: dict, n: int, scheduler: str | N
                                            dashboard_address=None, silence_logs=logging.ERROR)
         client = distributed.Client(cluster)
     try:
-        futures = {client.submit(run_one, job, str(t.path), options, str(t.base), pure=False, retries=0): t
-                   for t in tasks}
+        futures = {_submit(client, job, t, pure=False, retries=0): t for t in tasks}
         for f in distributed.as_completed(list(futures)):
             t = futures.pop(f)
             try:
                 row = f.result()
             except Exception as e:  # noqa: BLE001 - KilledWorker, a lost connection...
-                row = failed_row(job, t.path, options, f"the Dask cluster could not run this input: "
-                                                       f"{type(e).__name__}: {e}")
+                row = failed_row(job, t.path, t.options, f"the Dask cluster could not run this input: "
+                                                         f"{type(e).__name__}: {e}")
             f.release()
             yield row
     finally:

@@ -116,11 +116,13 @@ def _drop_empty_folder(output) -> None:
             pass
 
 
-def run_one(job: str, path: str | os.PathLike[str], options: dict, out_base: str | os.PathLike[str] | None) -> dict:
+def run_one(job: str, path: str | os.PathLike[str], options: dict, out_base: str | os.PathLike[str] | None,
+            notes: list[str] | tuple[str, ...] = ()) -> dict:
     """Run ``job`` on one input and return its batch row; never raises for a bad input.
 
     The output (if the job writes one) goes to ``mocapkit.jobs.batch_output(job, path, options, out_base)``;
-    its folder is created. Every exception becomes ``status="error"`` with :func:`error_line`.
+    its folder is created. ``notes`` (options the file made needless: :mod:`mocapkit.batch.file_options`)
+    open the record's ``warnings``. Every exception becomes ``status="error"`` with :func:`error_line`.
     """
     configure_numba_cache()
     t0 = time.perf_counter()
@@ -136,6 +138,8 @@ def run_one(job: str, path: str | os.PathLike[str], options: dict, out_base: str
         if output is not None:
             Path(output).parent.mkdir(parents=True, exist_ok=True)
         record = run_job(job, Path(path), options, output=output)
+        if notes:
+            record["warnings"] = [*notes, *record.get("warnings", [])]
         row["record_json"] = json.dumps(record, allow_nan=False, separators=(",", ":"))
         row["status"] = "ok"
     except (Exception, SystemExit) as e:  # noqa: BLE001 - every failure is this input's row

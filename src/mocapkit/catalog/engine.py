@@ -271,6 +271,9 @@ class Catalog:
                 raise MocapError(f"{redact(self.url)}: an empty catalog (no schema version): nothing to query")
             if not rows:
                 self.execute("INSERT INTO schema_version (version) VALUES (?)", (schema.SCHEMA_VERSION,))
+            elif len(rows) == 1 and not read_only and schema.upgrade(rows[0][0]):
+                for stmt in schema.upgrade(rows[0][0]):
+                    self.execute(stmt)
             elif len(rows) != 1 or rows[0][0] != schema.SCHEMA_VERSION:
                 raise MocapError(f"{redact(self.url)}: catalog schema version "
                                  f"{', '.join(str(r[0]) for r in rows)}; this mocapkit reads version "

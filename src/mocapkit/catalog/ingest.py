@@ -2,7 +2,9 @@
 
 Only the main process calls :func:`add_rows`: the batch's workers return rows, and the process that owns
 the catalog writes them, in one transaction per call. Adding a row again replaces what it wrote before
-(same :func:`run_id`): nothing is duplicated.
+(same :func:`run_id`): nothing is duplicated. A recording is keyed by its path, content hash and the
+reading options it was read with (:func:`reading_key`), so the same bytes read at another rate or with
+another skeleton are another recording row, never an overwrite.
 """
 
 from __future__ import annotations
@@ -65,14 +67,30 @@ def _signal_items(record: dict) -> list[tuple[str, dict]]:
     return []
 
 
-def recording_row(rec: dict, content_hash: str, nbytes: int | None, registered_at: dt.datetime) -> tuple:
-    return (rec["path"], content_hash, rec.get("format"), rec.get("kind"), _number(rec.get("rate_hz")),
+def reading_key(options: dict | str | None) -> tuple[str, str]:
+    """``(reading_json, reading_hash)`` of a job's options (a dict, or their canonical JSON): the options of
+    :func:`mocapkit.jobs.common.reading_options` as canonical JSON (``{}`` when none)."""
+    from mocapkit.jobs.common import reading_options
+
+    if isinstance(options, str):
+        try:
+            options = json.loads(options)
+        except ValueError:
+            options = None
+    got = reading_options(options if isinstance(options, dict) else {})
+    text = json.dumps(got, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return text, schema.reading_hash(text)
+
+
+def recording_row(rec: dict, content_hash: str, reading: tuple[str, str], nbytes: int | None,
+                  registered_at: dt.datetime) -> tuple:
+    return (rec["path"], content_hash, reading[1], reading[0], rec.get("format"), rec.get("kind"), _number(rec.get("rate_hz")),
             rec.get("frames"), _number(rec.get("duration_s")), rec.get("subject"), rec.get("take"), nbytes,
             registered_at)
 
 
-def channel_rows(rec: dict, content_hash: str) -> list[tuple]:
-    return [(rec["path"], content_hash, i, c.get("name"), c.get("component"), c.get("type"),
+def channel_rows(rec: dict, content_hash: str, reading: tuple[str, str]) -> list[tuple]:
+    return [(rec["path"], content_hash, reading[1], i, c.get("name"), c.get("component"), c.get("type"),
              c.get("tracked_point"), c.get("units")) for i, c in enumerate(rec.get("channels") or ())]
 
 
@@ -80,10 +98,17 @@ def _now() -> dt.datetime:
     return dt.datetime.now(dt.timezone.utc).replace(tzinfo=None)
 
 
-def put_recordings(catalog: Catalog, items: list[tuple[dict, str, int | None]]) -> int:
-    """Insert or update recordings ``(R, content_hash, bytes)`` and their channels (call inside a
-    transaction). A recording already present keeps its ``registered_at``. Returns the number written."""
-    latest = {(r["path"], h): (r, h, b) for r, h, b in items if h}
+def put_recordings(catalog: Catalog, items: list[tuple]) -> int:
+    """Insert or update recordings ``(R, content_hash, bytes, reading)`` (``reading``:
+    :func:`reading_key`; ``(R, content_hash, bytes)`` means read without options) and their channels (call
+    inside a transaction). A recording already present keeps its ``registered_at``. Returns the number
+    written."""
+    latest = {}
+    for item in items:
+        r, h, b = item[:3]
+        reading = item[3] if len(item) > 3 else reading_key({})
+        if h:
+            latest[(r["path"], h, reading[1])] = (r, h, b, reading)
     if not latest:
         return 0
     keys = list(latest)
@@ -91,16 +116,16 @@ def put_recordings(catalog: Catalog, items: list[tuple[dict, str, int | None]]) 
     for k in range(0, len(keys), _CHUNK):
         part = keys[k:k + _CHUNK]
         marks = ", ".join("?" for _ in part)
-        _, rows = catalog.query(f"SELECT path, content_hash, registered_at FROM recordings WHERE content_hash "
-                                f"IN ({marks})", [h for _, h in part])
-        first.update({(p, h): t for p, h, t in rows})
-    key_cols = (("path", "TEXT"), ("content_hash", "TEXT"))
+        _, rows = catalog.query(f"SELECT path, content_hash, reading_hash, registered_at FROM recordings WHERE "
+                                f"content_hash IN ({marks})", [key[1] for key in part])
+        first.update({(p, h, rh): t for p, h, rh, t in rows})
+    key_cols = (("path", "TEXT"), ("content_hash", "TEXT"), ("reading_hash", "TEXT"))
     catalog.delete_keys("channels", key_cols, keys)
     catalog.delete_keys("recordings", key_cols, keys)
     now = _now()
-    catalog.insert("recordings", [recording_row(r, h, b, first.get((r["path"], h), now))
-                                  for r, h, b in latest.values()])
-    catalog.insert("channels", [c for r, h, _ in latest.values() for c in channel_rows(r, h)])
+    catalog.insert("recordings", [recording_row(r, h, rd, b, first.get((r["path"], h, rd[1]), now))
+                                  for r, h, b, rd in latest.values()])
+    catalog.insert("channels", [c for r, h, _, rd in latest.values() for c in channel_rows(r, h, rd)])
     return len(latest)
 
 
@@ -143,8 +168,10 @@ def add_rows(catalog: Catalog, batch_rows: Iterable[dict]) -> dict:
         record = json.loads(row["record_json"]) if row.get("record_json") else None
         method = record.get("method") if isinstance(record, dict) else None
         warned = record.get("warnings") if isinstance(record, dict) else None
+        reading = reading_key(row.get("options_json"))
         runs.append((rid, row.get("job"), method if isinstance(method, str) else None, row.get("input"),
-                     row.get("content_hash"), row.get("options_json"), row.get("options_hash"),
+                     row.get("content_hash"), reading[1] if row.get("content_hash") else None,
+                     row.get("options_json"), row.get("options_hash"),
                      row.get("mocapkit_version"), utc_naive(row.get("started_at")), _number(row.get("seconds")),
                      row.get("status"), row.get("error"),
                      json.dumps(warned, allow_nan=False) if isinstance(warned, list) and warned else None))
@@ -153,7 +180,7 @@ def add_rows(catalog: Catalog, batch_rows: Iterable[dict]) -> dict:
         r = record.get("recording")
         if isinstance(r, dict) and row.get("content_hash"):
             r = {**r, "path": row.get("input") or r.get("path")}
-            recs.append((r, row["content_hash"], input_bytes(r["path"])))
+            recs.append((r, row["content_hash"], input_bytes(r["path"]), reading))
         metrics += [(rid, None, k, v) for k, v in _scalars(record, _NOT_METRICS)]
         for name, item in _signal_items(record):
             metrics += [(rid, name, k, v) for k, v in _scalars(item, ("pieces",))]

@@ -31,18 +31,20 @@ class ImportResult:
 
 
 def describe_input(path: str | os.PathLike, asf: Path | None = None,
-                   warnings: list | None = None) -> tuple[dict, str, int | None]:
-    """``(R, content_hash, bytes)`` of one input (raises what the reader raises); the reader's warnings
-    are appended to ``warnings`` when given."""
-    from mocapkit.catalog.ingest import input_bytes
+                   warnings: list | None = None) -> tuple[dict, str, int | None, tuple[str, str]]:
+    """``(R, content_hash, bytes, reading)`` of one input (raises what the reader raises; ``reading`` as
+    :func:`mocapkit.catalog.ingest.reading_key`); the reader's warnings are appended to ``warnings`` when
+    given."""
+    from mocapkit.catalog.ingest import input_bytes, reading_key
     from mocapkit.jobs import run_job
     from mocapkit.jobs.recording import content_hash
 
     h = content_hash(path)
-    record = run_job("info", Path(path), {"asf": None if asf is None else str(asf)})
+    options = {"asf": os.path.abspath(asf) if asf is not None and Path(path).suffix.lower() == ".amc" else None}
+    record = run_job("info", Path(path), options)
     if warnings is not None:
         warnings += record.get("warnings", [])
-    return {**record["recording"], "path": os.fspath(path)}, h, input_bytes(os.fspath(path))
+    return {**record["recording"], "path": os.fspath(path)}, h, input_bytes(os.fspath(path)), reading_key(options)
 
 
 def import_folder(catalog: Catalog, inputs: list[str | os.PathLike], asf: Path | None = None,
@@ -56,13 +58,13 @@ def import_folder(catalog: Catalog, inputs: list[str | os.PathLike], asf: Path |
 
     found = expand_inputs(list(inputs))
     result = ImportResult(skipped=list(found.skipped))
-    pending: list[tuple[dict, str, int | None]] = []
+    pending: list[tuple] = []
 
     def flush() -> None:
         if pending:
             with catalog.transaction():
                 put_recordings(catalog, pending)
-            result.registered += [r["path"] for r, _, _ in pending]
+            result.registered += [item[0]["path"] for item in pending]
             pending.clear()
 
     for f in found.files:

@@ -935,6 +935,12 @@ def _conjugated(c_quat, m: Rotation) -> np.ndarray:
 # --------------------------------------------------------------------------------------------------
 
 
+def companion_asf(amc: str | Path) -> Path | None:
+    """The CMU companion skeleton an AMC take is read with when none is given: ``<stem>.asf`` or
+    ``<subject>.asf`` beside it (``86_01.amc`` -> ``86.asf``), or None."""
+    return _companion_asf(Path(amc))
+
+
 def _companion_asf(amc: Path) -> Path | None:
     stem = amc.stem
     cands = [stem, stem.split("_", 1)[0]]

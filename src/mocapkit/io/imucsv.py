@@ -333,6 +333,38 @@ def detect_format(path: str | Path, options: ColumnOptions | None = None) -> str
     return lay.fmt
 
 
+def stated_clock(path: str | Path, options: ColumnOptions | None = None) -> str | None:
+    """What gives the file (or every sensor file of a sensor folder) its times without a ``rate``: ``"its
+    time column 'Time (s)'"`` or ``"its sample rate (50 Hz)"``; ``None`` when it needs a rate (a counter or
+    no time column, and no rate line) or when its header cannot be read (the reader then says why)."""
+    p = Path(path)
+    try:
+        files = [p]
+        if p.is_dir():  # a folder of sensor files, or of sensor sub-folders
+            subs = sorted(e for e in p.iterdir() if e.is_dir() and _visible(e))
+            files = [f for d in [p, *subs] for f in _data_files(d) if detect_format(f, options) is not None]
+    except OSError:
+        return None
+    said = []
+    for f in files:
+        try:
+            with open(f, "rb") as fh:
+                head = fh.read(65536)
+            lines = split_lines(head.decode("utf-8", errors="replace"))
+            if len(head) == 65536 and len(lines) > 1:
+                lines = lines[:-1]
+            lay = find_layout(lines, _content_end(lines), str(f), None, options or ColumnOptions(), probe=True)
+        except (OSError, MocapFormatError):
+            return None
+        if lay.time.col is not None and lay.time.unit not in ("counter", None):
+            said.append(f"its time column {lay.time.name!r}")
+        elif lay.file_rate is not None:
+            said.append(f"its sample rate ({lay.file_rate:g} Hz)")
+        else:
+            return None
+    return said[0] if said else None
+
+
 def _visible(p: Path) -> bool:
     return not p.name.startswith(".") and p.name != "__pycache__"
 

@@ -79,9 +79,11 @@ def not_read_by(job: str, path: str | Path, options: dict | None = None) -> str 
                 f"{_KIND_WORD[kind]}{'' if path.is_file() else ' (a folder)'}")
     if kind not in READS.get(job, ()):
         return f"{job} reads {' and '.join(_KIND_WORDS[k] for k in READS[job])}; this is {_KIND_WORD[kind]}"
-    if job == "compress" and kind == "skeletal" and options.get("max_angle") is not None:
+    if job == "compress" and kind == "skeletal" and options.get("max_angle") is not None \
+            and options.get("max_position_error") is None:
         return "--max-angle is a bound for IMU data; skeletons take --max-position-error CM"
-    if job == "compress" and kind == "imu" and options.get("max_position_error") is not None:
+    if job == "compress" and kind == "imu" and options.get("max_position_error") is not None \
+            and options.get("max_angle") is None:
         return "--max-position-error is a bound for skeletons; IMU data takes --max-angle DEG"
     if kind == "imu" and path.is_file() and path.suffix.lower() in (".csv", ".txt", ".tsv"):
         from mocapkit.io.imu_columns import ColumnOptions
@@ -100,19 +102,23 @@ def not_read_by(job: str, path: str | Path, options: dict | None = None) -> str 
     return None
 
 
-def check_options(job: str, options: dict) -> None:
+def check_options(job: str, options: dict, per_file: bool = False) -> None:
     """Refuse, before any input is read, options that no input could make right (e.g. ``segment --method
-    mlp`` without ``--train``): the checks each job makes first, without a file."""
+    mlp`` without ``--train``): the checks each job makes first, without a file. ``per_file``: a batch's
+    options, which each file's manifest entry or sidecar may complete (``compress``: no control, or one
+    bound per kind of input)."""
     if job not in JOBS:
         raise InvalidParameterError(f"unknown job {job!r}: one of {', '.join(JOBS)}")
     check = {"compress": _compress_checks, "filter": _filter_checks, "segment": _segment_checks,
              "verify": _verify_checks}.get(job)
     if check is not None:
-        check(**{k: v for k, v in options.items() if k in check.__code__.co_varnames})
+        extra = {"per_file": True} if per_file and job == "compress" else {}
+        check(**{k: v for k, v in options.items() if k in check.__code__.co_varnames}, **extra)
 
 
-def batch_output(job: str, path: str | Path, options: dict, base: str | Path) -> Path | None:
-    """Where ``mocapkit batch`` writes the output of ``job`` for ``path``, with the folders it needs made:
+def batch_output(job: str, path: str | Path, options: dict, base: str | Path, make: bool = True) -> Path | None:
+    """Where ``mocapkit batch`` writes the output of ``job`` for ``path``, with the folders it needs made
+    (``make=False``: only the path):
     ``base`` is ``OUT/<relative folder>/<input stem>``. Compressed IMU points go to the folder
     ``<base>.points`` (one CSV per sensor, whatever the number of sensors), a compressed skeleton to
     ``<base>.glb`` (``<base>.mkc`` with the option ``skeletal_format="mkc"``), filtered values to ``<base>.filtered.csv`` (``.filtered.c3d`` for a C3D input);
@@ -131,11 +137,13 @@ def batch_output(job: str, path: str | Path, options: dict, base: str | Path) ->
             out = base.with_name(base.name + "." + (options.get("skeletal_format") or "glb"))
         else:
             out = base.with_name(base.name + ".points")
-            out.mkdir(parents=True, exist_ok=True)
+            if make:
+                out.mkdir(parents=True, exist_ok=True)
     elif job == "filter":
         keep_c3d = path.suffix.lower() == ".c3d" and not options.get("columns")
         out = base.with_name(base.name + (".filtered.c3d" if keep_c3d else ".filtered.csv"))
     else:
         return None
-    out.parent.mkdir(parents=True, exist_ok=True)
+    if make:
+        out.parent.mkdir(parents=True, exist_ok=True)
     return out

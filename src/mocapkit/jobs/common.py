@@ -29,6 +29,16 @@ def imu_columns(time_column=None, quaternion_columns=None, scalar_last=False, ti
             "time_unit": time_unit}
 
 
+#: the options that change how a file is read, with their defaults (the catalog keys a recording by them)
+READING_DEFAULTS = {"rate": None, "asf": None, "time_column": None, "quaternion_columns": None,
+                    "scalar_last": False, "time_unit": None, "strict": True}
+
+
+def reading_options(options: dict) -> dict:
+    """The reading options in ``options`` that differ from their default: how a file was read."""
+    return {k: options[k] for k, d in READING_DEFAULTS.items() if k in options and options[k] != d}
+
+
 def output_entry(path: Path, fmt: str, bound: float | None = None, bound_unit: str | None = None) -> dict:
     """One written output as the record lists it (``bytes`` is None for a device or pipe)."""
     p = Path(path)

@@ -42,9 +42,11 @@ METHODS = ("fastsw", "sw", "cplr", "swing", "anglesw", "optimal")
 
 
 def check_options(method: str = "fastsw", threshold=None, target_icr=None, max_angle=None,
-                  max_position_error=None, skeletal_format=None, error_metric="joint") -> None:
+                  max_position_error=None, skeletal_format=None, error_metric="joint", per_file: bool = False) -> None:
     """The option checks that need no file: a known method and exactly one control; the batch's
-    skeletal output format and what it can bound."""
+    skeletal output format and what it can bound. ``per_file`` (a batch's own options, completed per
+    file): ``max_angle`` and ``max_position_error`` may come together (each bounds its kind of input), or
+    no control at all (the files' manifest or sidecars give them)."""
     if skeletal_format not in (None, "glb", "mkc"):
         raise InvalidParameterError(f"--skeletal-format {skeletal_format!r}: mkc or glb")
     if error_metric not in ("joint", "shell"):
@@ -53,9 +55,14 @@ def check_options(method: str = "fastsw", threshold=None, target_icr=None, max_a
         raise InvalidParameterError("--error-metric shell is bounded in .mkc clips: add --skeletal-format mkc")
     if method not in METHODS:
         raise InvalidParameterError(f"--method {method!r}: one of {', '.join(METHODS)}")
-    if sum(x is not None for x in (threshold, target_icr, max_angle, max_position_error)) != 1:
+    given = sum(x is not None for x in (threshold, target_icr, max_angle, max_position_error))
+    if per_file and (given == 0 or (given == 2 and max_angle is not None and max_position_error is not None)):
+        return
+    if given != 1:
         raise InvalidParameterError("give exactly one of --threshold, --target-icr, --max-angle (IMU data) or "
-                                    "--max-position-error (skeletons)")
+                                    "--max-position-error (skeletons)"
+                                    + ("; --max-angle and --max-position-error may go together (each bounds its "
+                                       "kind of input)" if per_file else ""))
 
 
 def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None = None,
