@@ -364,3 +364,21 @@ def test_the_checks_are_a_second_implementation():
                 [node.module or ""] if isinstance(node, ast.ImportFrom) else []
             for n in names:
                 assert not n.startswith("mocapkit") or n.startswith("mocapkit.verify"), (f.name, n)
+
+
+def test_both_bounds_each_apply_to_their_kind(tmp_path, capsys):
+    """As in a mixed batch: --max-angle and --max-position-error together, each bounding its kind."""
+    src = next(p for p in sorted((DATA / "imu" / "xsens-dot").rglob("*.csv")))
+    pts = tmp_path / "pts.csv"
+    assert _cli(["compress", str(src), "--max-angle", "2", "-o", str(pts)]) == 0
+    capsys.readouterr()
+    assert _cli(["verify", str(src), str(pts), "--max-angle", "2", "--max-position-error", "0.001", "--json"]) == 0
+    rec = json.loads(capsys.readouterr().out)
+    assert rec["bound"] == 2 and rec["bound_unit"] == "deg"
+    assert _cli(["verify", str(src), str(pts), "--max-angle", "0.01", "--max-position-error", "100", "--json"]) == 1
+    walk, clip = DATA / "bvh" / "walk-meredith-60.bvh", DATA / "clip" / "walk-meredith-60.mkc"
+    capsys.readouterr()
+    assert _cli(["verify", str(walk), str(clip), "--max-angle", "0.001", "--max-position-error", "1",
+                 "--json"]) == 0
+    rec = json.loads(capsys.readouterr().out)
+    assert rec["bound"] == 1 and rec["bound_unit"] == "cm"

@@ -31,11 +31,10 @@ SKELETAL_OUTPUTS = (".mkc", ".glb", ".gltf", ".bvh")
 
 def check_options(max_angle=None, max_position_error=None, error_metric="joint", shell_distance=3.0,
                   skeletal_format=None) -> None:
-    """The checks that need no file: at most one bound, a known metric, a positive shell distance."""
+    """The checks that need no file: bounds in range (both may be given: each bounds its kind, as in a
+    mixed batch), a known metric, a positive shell distance."""
     if skeletal_format not in (None, "glb", "mkc"):
         raise InvalidParameterError(f"--skeletal-format {skeletal_format!r}: glb or mkc")
-    if max_angle is not None and max_position_error is not None:
-        raise InvalidParameterError("give at most one of --max-angle (IMU data) and --max-position-error (skeletons)")
     for name, v, lo, hi in (("--max-angle", max_angle, 0.0, 180.0), ("--max-position-error", max_position_error,
                                                                       0.0, 1e9)):
         if v is not None and not (math.isfinite(v) and lo < v <= hi):
@@ -73,14 +72,14 @@ def verify_job(path: Path, output: Path | None = None, *, compressed: Path | Non
     kind = kind_of(path)
     with progress(f"verifying {compressed.name}", None):
         if kind == "skeletal":
-            if max_angle is not None:
+            if max_angle is not None and max_position_error is None:
                 raise InvalidParameterError("--max-angle is a bound for IMU data; skeletons take --max-position-error CM")
             return _skeletal(path, compressed, max_position_error, error_metric, shell_distance, unit_cm, asf, rate,
                              strict)
         if kind != "imu":
             raise InvalidParameterError(f"{path}: verify reads IMU data and skeletons (BVH, AMC, MVNX); this is "
                                         f"{'a marker file' if kind == 'markers' else 'a table'}")
-        if max_position_error is not None:
+        if max_position_error is not None and max_angle is None:
             raise InvalidParameterError("--max-position-error is a bound for skeletons; IMU data takes --max-angle DEG")
         return _imu(path, compressed, max_angle, rate, imu_columns(time_column, quaternion_columns, scalar_last,
                                                                    time_unit))
