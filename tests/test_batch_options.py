@@ -474,3 +474,18 @@ def test_rate_precedence_property(tmp_path, tests_data, command, entries, sideca
                 assert note.endswith(f"not used: the file gives {OWN_CLOCK[n]}")
         else:
             assert fo.options["rate"] == wanted and fo.notes == []
+
+
+def test_catalog_query_on_a_version_1_catalog_says_how_it_is_upgraded(tmp_path):
+    """``catalog query`` opens read-only, so it cannot upgrade: it says which command will, and writes nothing."""
+    import duckdb
+
+    url = str(tmp_path / "v1.duckdb")
+    c = duckdb.connect(url)
+    c.execute("CREATE TABLE schema_version (version BIGINT NOT NULL)")
+    c.execute("INSERT INTO schema_version (version) VALUES (1)")
+    c.close()
+    before = Path(url).read_bytes()
+    code, out, err = run("catalog", "query", "--db", url, "SELECT 1")
+    assert code == 2 and "upgraded in place by the next command that writes to it" in err, err
+    assert Path(url).read_bytes() == before

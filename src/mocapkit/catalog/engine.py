@@ -275,9 +275,12 @@ class Catalog:
                 for stmt in schema.upgrade(rows[0][0]):
                     self.execute(stmt)
             elif len(rows) != 1 or rows[0][0] != schema.SCHEMA_VERSION:
+                how = (" (upgraded in place by the next command that writes to it: `mocapkit catalog import` or "
+                       "`mocapkit batch ... --db`)" if read_only and len(rows) == 1 and schema.upgrade(rows[0][0])
+                       else "")
                 raise MocapError(f"{redact(self.url)}: catalog schema version "
                                  f"{', '.join(str(r[0]) for r in rows)}; this mocapkit reads version "
-                                 f"{schema.SCHEMA_VERSION}")
+                                 f"{schema.SCHEMA_VERSION}{how}")
 
     def _tables(self) -> dict[str, set[str]]:
         """The tables of the catalog's own schema (DuckDB ``main``, PostgreSQL ``current_schema()``) and
