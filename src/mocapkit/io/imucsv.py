@@ -488,7 +488,8 @@ def load_signals(path: str | Path, rate: float | None = None, *, options: Column
     """Load every signal from a file or a sensor folder, as ``{name: Signal}``.
 
     A folder goes to :func:`read_sensor_folder`; a file to the reader registered for its suffix in
-    :data:`READERS` (the IMU CSV reader for ``.csv``, ``.txt`` and unknown suffixes). The column
+    :data:`READERS` (the IMU CSV reader for ``.csv``, ``.txt`` and unknown suffixes; a legacy x-io
+    ``<prefix>_Quaternion.csv`` takes its rate from ``<prefix>_Registers.csv`` beside it). The column
     overrides (``time_column``, ``quaternion_columns``, ``scalar_last``, ``time_unit``, or
     ``options``) apply to IMU CSV files only.
     """
@@ -500,7 +501,7 @@ def load_signals(path: str | Path, rate: float | None = None, *, options: Column
         return read_sensor_folder(p, rate=rate, options=opts)
     reader = READERS.get(p.suffix.lower(), _read_imu_file)
     if reader is _read_imu_file:
-        return read_imu_file(p, rate, options=opts)
+        return _read_sensor_file(p, rate, opts)
     if opts.any:
         raise InvalidParameterError(
             f"{p}: --time-column/--quaternion-columns/--scalar-last/--time-unit apply to IMU CSV files only"
