@@ -218,3 +218,14 @@ def test_ngimu_session_names_are_never_paths(tmp_path):
     sigs = read_sensor_folder(d)
     assert list(sigs) == ["NGIMU - 0035EEA0", "NGIMU - 0035EEB1"]
     assert any("'../outside'" in w for w in sigs["NGIMU - 0035EEA0"].meta["warnings"])
+
+
+def test_batch_inputs_take_an_ngimu_session_as_one_recording():
+    from mocapkit.jobs.inputs import expand_inputs, is_sensor_folder
+
+    assert is_sensor_folder(NGIMU)                     # Session.xml at the top, euler.csv beside quaternion.csv
+    got = expand_inputs([NGIMU])
+    assert got.files == [NGIMU.resolve()]
+    legacy = expand_inputs([XIO_LEGACY])
+    assert (str((XIO_LEGACY / "00000_Registers.csv").resolve()), "x-io register file (read with the quaternion "
+            "file beside it)") in legacy.skipped

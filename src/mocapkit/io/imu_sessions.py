@@ -32,8 +32,10 @@ from mocapkit.errors import MocapFormatError
 __all__ = [
     "DERIVED_ORIENTATION",
     "SESSION_XML",
+    "drop_derived",
     "folder_companions",
     "legacy_xio_rate",
+    "missing_devices",
     "ngimu_session_devices",
     "orientation_prefix",
     "registers_file",
@@ -61,6 +63,22 @@ def orientation_prefix(path: Path) -> tuple[str, str] | None:
         return None
     m = _PART_RE.fullmatch(path.stem)
     return (m.group("prefix"), m.group("kind").lower()) if m else None
+
+
+def drop_derived(orientation_files: Sequence[Path]) -> tuple[list[Path], list[str]]:
+    """``(kept, names skipped)``: the orientation files minus those holding the orientation of a
+    quaternion file beside them in another form (``euler.csv``, ``00000_EulerAngles.csv``,
+    ``matrix.csv``... of the same prefix)."""
+    parts = {f: orientation_prefix(f) for f in orientation_files}
+    with_quat = {p[0].lower() for p in parts.values() if p is not None and p[1] == "quaternion"}
+    keep, skipped = [], []
+    for f in orientation_files:
+        p = parts[f]
+        if p is not None and p[1] in DERIVED_ORIENTATION and p[0].lower() in with_quat:
+            skipped.append(f.name)
+        else:
+            keep.append(f)
+    return keep, skipped
 
 
 def registers_file(quaternion_file: Path) -> Path | None:

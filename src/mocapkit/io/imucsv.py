@@ -72,8 +72,7 @@ from mocapkit.io.imu_columns import ColumnOptions
 from mocapkit.io.imu_layout import EXPECTED, Layout, find_layout
 from mocapkit.io.imu_lines import Block, file_blocks, open_input, text_blocks
 from mocapkit.io.imu_rows import MIN_STEP, RowReader
-from mocapkit.io.imu_sessions import (DERIVED_ORIENTATION, legacy_xio_rate, missing_devices, orientation_prefix,
-                                      registers_file, session_file)
+from mocapkit.io.imu_sessions import drop_derived, legacy_xio_rate, missing_devices, registers_file, session_file
 from mocapkit.io.numbers import MAX_ABS
 from mocapkit.motion import Signal
 
@@ -354,21 +353,6 @@ def _named(sigs: dict[str, Signal], name: str) -> dict[str, Signal]:
     return {f"{name}/{k}": s for k, s in sigs.items()}
 
 
-def _without_derived(quat: list[Path]) -> tuple[list[Path], list[str]]:
-    """The orientation files minus those holding the orientation of a quaternion file beside them in
-    another form (x-io ``euler.csv`` / ``00000_EulerAngles.csv``, ``matrix.csv``...: same prefix)."""
-    parts = {f: orientation_prefix(f) for f in quat}
-    with_quat = {p[0].lower() for p in parts.values() if p is not None and p[1] == "quaternion"}
-    keep, skipped = [], []
-    for f in quat:
-        p = parts[f]
-        if p is not None and p[1] in DERIVED_ORIENTATION and p[0].lower() in with_quat:
-            skipped.append(f.name)
-        else:
-            keep.append(f)
-    return keep, skipped
-
-
 def _read_sensor_file(f: Path, rate: float | None, opts: ColumnOptions) -> dict[str, Signal]:
     """One orientation file of a folder; a legacy x-io file takes its rate from ``<prefix>_Registers.csv``."""
     regs = registers_file(f) if detect_format(f, opts) == "x-io-legacy" else None
@@ -425,7 +409,7 @@ def read_sensor_folder(path: str | Path, rate: float | None = None, *, options: 
                 candidates = _data_files(sub)
             except OSError as exc:
                 raise MocapFormatError(str(sub), None, f"cannot list the folder: {exc.strerror or exc}") from None
-            quat, derived = _without_derived([f for f in candidates if detect_format(f, opts) is not None])
+            quat, derived = drop_derived([f for f in candidates if detect_format(f, opts) is not None])
             if not quat:
                 looked = ", ".join(f.name for f in candidates) or "no *.csv or *.txt files"
                 raise MocapFormatError(
@@ -449,7 +433,7 @@ def read_sensor_folder(path: str | Path, rate: float | None = None, *, options: 
         raise MocapFormatError(
             src, None, "no sensors: expected one sub-folder per sensor or one *.csv/*.txt file per sensor"
         )
-    quat_files, derived = _without_derived([f for f in files if detect_format(f, opts) is not None])
+    quat_files, derived = drop_derived([f for f in files if detect_format(f, opts) is not None])
     skipped = [f.name for f in files if f not in quat_files]
     if not quat_files:
         raise MocapFormatError(
