@@ -4,7 +4,6 @@ its decode (error per joint); a ``.mkp`` or points CSV after an IMU file is its 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -48,13 +47,9 @@ def file_kind(path: Path) -> str:
 
 def read_segments(path: Path) -> dict:
     """The cuts and segments of a ``segment --json`` output, checked."""
-    from mocapkit.io.textinput import decode_text, read_input
+    from mocapkit.view.json_input import read_json
 
-    text, _ = decode_text(read_input(path, "segments JSON"))
-    try:
-        rec = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise MocapFormatError(str(path), e.lineno, f"not JSON ({e.msg})") from None
+    rec = read_json(path, "segments JSON")
     if not isinstance(rec, dict) or rec.get("job") != "segment" or not isinstance(rec.get("segments"), list):
         raise MocapFormatError(str(path), None, "expected the output of `mocapkit segment --json` (a record with "
                                "job \"segment\", cuts and segments)")
@@ -64,7 +59,7 @@ def read_segments(path: Path) -> dict:
                  "label": None if s.get("label") is None else str(s["label"]),
                  "action": None if s.get("action") is None else str(s["action"])} for s in rec["segments"]]
         n_frames = int(rec["n_frames"])
-    except (KeyError, TypeError, ValueError) as e:
+    except (KeyError, TypeError, ValueError, OverflowError) as e:
         raise MocapFormatError(str(path), None, f"a cut or segment lacks a field or a number ({e})") from None
     return {"file": str(rec.get("file", "")), "method": rec.get("method"), "n_frames": n_frames,
             "rate_hz": rec.get("rate_hz"), "cuts": cuts, "segments": segs}
