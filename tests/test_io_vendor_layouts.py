@@ -229,3 +229,17 @@ def test_batch_inputs_take_an_ngimu_session_as_one_recording():
     legacy = expand_inputs([XIO_LEGACY])
     assert (str((XIO_LEGACY / "00000_Registers.csv").resolve()), "x-io register file (read with the quaternion "
             "file beside it)") in legacy.skipped
+
+
+def test_apdm_one_row_sensor_groups(tmp_path):
+    """Per-sensor groups named in one header row (``SI-000774/Orientation S`` ...): one signal per sensor."""
+    p = tmp_path / "apdm_one_row.csv"
+    head = ["Time"] + [f"{s}/Orientation {c}" for s in ("SI-000774", "SI-000775") for c in "SXYZ"]
+    rows = [[0.0, 1, 0, 0, 0, 0.5, 0.5, 0.5, 0.5], [0.0078125, 0.99, 0.141067, 0, 0, 0.5, 0.5, -0.5, 0.5]]
+    p.write_text(",".join(head) + "\n" + "\n".join(",".join(repr(float(v)) for v in r) for r in rows) + "\n")
+    sigs = load_signals(p)
+    assert list(sigs) == ["SI-000774", "SI-000775"]
+    data = np.genfromtxt(p, delimiter=",", skip_header=1)
+    np.testing.assert_array_equal(sigs["SI-000774"].values, data[:, 1:5])
+    np.testing.assert_array_equal(sigs["SI-000775"].values, data[:, 5:9])
+    assert sigs["SI-000775"].meta["format"] == "apdm"

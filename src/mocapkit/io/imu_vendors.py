@@ -187,7 +187,7 @@ def vendor_label(names: Sequence[str], preamble: Sequence[str], sensors: Sequenc
     pre = " ".join(norm(p) for p in preamble)
     if optitrack:
         return "optitrack"
-    if any(s.sensor for s in sensors) and any("/orientation/" in n for n in low):
+    if any(s.sensor for s in sensors) and any("/orientation" in n for n in low):
         return "apdm"
     if any(n.startswith("shimmer_") for n in low):
         return "shimmer"
