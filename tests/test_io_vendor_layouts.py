@@ -243,3 +243,84 @@ def test_apdm_one_row_sensor_groups(tmp_path):
     np.testing.assert_array_equal(sigs["SI-000774"].values, data[:, 1:5])
     np.testing.assert_array_equal(sigs["SI-000775"].values, data[:, 5:9])
     assert sigs["SI-000775"].meta["format"] == "apdm"
+
+
+# --------------------------------------------------------------------------------------------------
+# properties: any TRC re-saved as CSV, any Format=7 layout
+# --------------------------------------------------------------------------------------------------
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(n=st.integers(2, 12), m=st.integers(1, 4), seed=st.integers(0, 2 ** 31),
+       quoting=st.sampled_from([csv.QUOTE_MINIMAL, csv.QUOTE_NONNUMERIC, csv.QUOTE_ALL]),
+       pad=st.integers(0, 5), gap=st.booleans())
+def test_property_trc_resaved_as_csv_reads_the_same(tmp_path, n, m, seed, quoting, pad, gap):
+    """A TRC written by mocapkit (tabs) and saved again as CSV by any quoting rule, rows padded with
+    commas, reads to the same markers (gaps included)."""
+    from mocapkit.io.opensim import write_trc
+    from mocapkit.markers import Markers
+
+    rng = np.random.default_rng(seed)
+    pos = np.round(rng.normal(0, 500, (n, m, 3)), 6)
+    if gap:
+        pos[rng.integers(n), rng.integers(m)] = np.nan
+    mk = Markers(np.arange(n) / 100.0, pos, [f"M,{k}" if k == 0 else f"M{k}" for k in range(m)], 100.0, units="mm")
+    tab = tmp_path / f"t{seed}.trc"
+    write_trc(mk, tab)
+    rows = [ln.split("\t") for ln in tab.read_text().split("\n") if ln != ""]
+    width = max(len(r) for r in rows) + pad
+    out = tmp_path / f"c{seed}.trc"
+
+    def cell(c: str) -> str:  # minimal: only what needs it; text: every non-number; all: every cell
+        if quoting == csv.QUOTE_ALL or "," in c or '"' in c or (quoting == csv.QUOTE_NONNUMERIC and c and not _num(c)):
+            return '"' + c.replace('"', '""') + '"'
+        return c
+    out.write_text("\r\n".join(",".join(cell(c) for c in r + [""] * (width - len(r))) for r in rows) + "\r\n")
+    a, b = read_trc(tab), read_trc(out)
+    assert b.meta["delimiter"] == "," and list(b.labels) == list(a.labels)
+    np.testing.assert_array_equal(b.times, a.times)
+    np.testing.assert_array_equal(np.isnan(b.positions), np.isnan(a.positions))
+    np.testing.assert_array_equal(np.nan_to_num(b.positions), np.nan_to_num(a.positions))
+
+
+def _num(c: str) -> bool:
+    try:
+        float(c)
+    except ValueError:
+        return False
+    return c.strip() != "" and c.strip().lower() not in ("nan", "inf", "-inf")
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(k=st.integers(1, 4), n=st.integers(2, 10), seed=st.integers(0, 2 ** 31), extra=st.booleans())
+def test_property_apdm_format7_any_sensor_count(tmp_path, k, n, seed, extra):
+    """k sensors in Format=7 groups of 14 columns (or 15 with an extra quantity before Orientation):
+    each sensor's S,X,Y,Z equal the text's numbers, in the file's sensor order."""
+    rng = np.random.default_rng(seed)
+    names = [f"SI-{rng.integers(0, 999999):06d}" for _ in range(k)]
+    if len(set(names)) < k:
+        return
+    quantities = ["Accelerometer", "", "", "Gyroscope", "", "", "Magnetometer", "", "", "Barometer"]
+    comps = ["X", "Y", "Z", "X", "Y", "Z", "X", "Y", "Z", ""]
+    if extra:
+        quantities, comps = quantities + ["Temperature"], comps + [""]
+    g = len(quantities) + 4
+    r1, r2, r3 = ["Format=7"], ["Time"], [""]
+    for j, s in enumerate(names):
+        r1 += [f"I{j + 1}", "", "", s] + [""] * (g - 4)
+        r2 += quantities + ["Orientation", "", "", ""]
+        r3 += comps + ["S", "X", "Y", "Z"]
+    data = np.round(rng.normal(0, 1, (n, 1 + g * k)), 8)
+    data[:, 0] = np.arange(n) / 128.0
+    p = tmp_path / f"a{seed}.csv"
+    p.write_text("\n".join(",".join(r) for r in (r1, r2, r3)) + "\n"
+                 + "\n".join(",".join(repr(float(v)) for v in row) for row in data) + "\n")
+    sigs = load_signals(p)
+    assert list(sigs) == names
+    for j, s in enumerate(names):
+        c0 = 1 + j * g + len(quantities)
+        np.testing.assert_array_equal(sigs[s].values, data[:, c0:c0 + 4])
+        np.testing.assert_array_equal(sigs[s].times, data[:, 0])
