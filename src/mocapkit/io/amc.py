@@ -935,7 +935,8 @@ def _conjugated(c_quat, m: Rotation) -> np.ndarray:
 # --------------------------------------------------------------------------------------------------
 
 
-def _companion_asf(amc: Path) -> Path | None:
+def companion_asf(amc: Path) -> Path | None:
+    """The CMU companion skeleton beside ``amc`` (``<stem>.asf`` or ``<subject>.asf``), when it exists."""
     stem = amc.stem
     cands = [stem, stem.split("_", 1)[0]]
     for c in dict.fromkeys(cands):
@@ -955,7 +956,7 @@ def load_amc_for_cli(path: str | Path, asf: str | Path | None = None, rate: floa
     """
     p = Path(path)
     if asf is None:
-        found = _companion_asf(p)
+        found = companion_asf(p)
         if found is None:
             subject = p.stem.split("_", 1)[0]
             raise InvalidParameterError(

@@ -98,9 +98,9 @@ def companions(path: str | Path, *, asf: str | Path | None = None,
             return []
         s = p.suffix.lower()
         if s == ".amc" and asf is None:
-            from mocapkit.io.amc import _companion_asf
+            from mocapkit.io.amc import companion_asf
 
-            found = _companion_asf(p)
+            found = companion_asf(p)
             out += [found] if found is not None else []
         if labels_beside and p.with_name(p.stem + ".labels.txt").is_file():
             out.append(p.with_name(p.stem + ".labels.txt"))
