@@ -154,10 +154,14 @@ def _check_output(path: Optional[Path], folder: bool = False, source: Optional[P
                   inputs=(), option: str = "--output") -> None:
     """Refuse, before any work, an output (``option``) that cannot be written, is the same file as an
     input (``source`` and ``inputs``; hard links and symlinks too) or lies in an input folder
-    (:func:`mocapkit.io.atomic.check_output`)."""
+    (:func:`mocapkit.io.atomic.check_output`). The files read implicitly with them (an AMC's ASF, a
+    folder's ``Session.xml``...: :func:`mocapkit.io.loaders.companions`) are inputs too."""
     from mocapkit.io.atomic import check_output
+    from mocapkit.io.loaders import inputs_with_companions
 
-    check_output(path, [source, *inputs], folder=folder, option=option)
+    if path is None:
+        return
+    check_output(path, inputs_with_companions([source, *inputs]), folder=folder, option=option)
 
 
 def _non_finite(obj, where: str = ""):

@@ -73,7 +73,7 @@ def similarity(
         tab.add_column(col, justify="left" if col == "limb" else "right")
     for row in rec["limbs"]:
         r = row["r"]
-        tab.add_row(row["limb"], "undefined" if r is None else f"{r:.3f}",
+        tab.add_row(row["limb"], "n/a" if r is None else f"{r:.3f}",
                     "" if r is None else f"{row['similarity_pct']:.1f}", f"{row['distance_deg']:.3f}",
                     str(row["path_length"]))
     console.print(tab)

@@ -11,9 +11,13 @@ from typing import Annotated
 import typer
 
 from mocapkit.cli_options import (
+    RATE_RANGE,
     AsfOpt,
-    SegRateOpt,
+    QuatColumnsOpt,
+    ScalarLastOpt,
     StrictOpt,
+    TimeColumnOpt,
+    TimeUnitOpt,
     UnitCmOpt,
     _progress,
     _within,
@@ -21,6 +25,10 @@ from mocapkit.cli_options import (
     err,
 )
 from mocapkit.errors import InvalidParameterError
+
+ViewRateOpt = Annotated[float | None, typer.Option(
+    "--rate", help="Sample rate in Hz of an IMU file without timestamps (legacy x-io, Xsens), or the frame rate of "
+                   "an AMC file (default 120 Hz), as compress reads them.", callback=_within(*RATE_RANGE))]
 
 
 def _frame_range(text: str | None) -> tuple[int, int] | None:
@@ -74,12 +82,17 @@ def view(
         "--trail", help="--export: marker trajectories, fits and knots within this many seconds of the current "
                         "time, or 'all'.")] = "1",
     asf: AsfOpt = None,
-    rate: SegRateOpt = None,
+    rate: ViewRateOpt = None,
+    time_column: TimeColumnOpt = None,
+    quaternion_columns: QuatColumnsOpt = None,
+    scalar_last: ScalarLastOpt = False,
+    time_unit: TimeUnitOpt = None,
     unit_cm: UnitCmOpt = None,
     strict: StrictOpt = True,
 ) -> None:
     """Look at motion: original and compressed skeletons or IMU orientations side by side with their
     error, segment cuts on the timeline, marker trajectories with the filter's pieces and knots."""
+    from mocapkit.jobs.common import imu_columns
     from mocapkit.view.scene import build_scene
 
     span = _frame_range(frames)
@@ -100,7 +113,8 @@ def view(
     try:
         with _progress("reading", None):
             scene = build_scene(files, segments=segments, filter_json=filter_json, asf=asf, unit_cm=unit_cm,
-                                strict=strict, rate=rate)
+                                strict=strict, rate=rate,
+                                columns=imu_columns(time_column, quaternion_columns, scalar_last, time_unit))
     except BaseException:
         if server is not None:
             server.server_close()

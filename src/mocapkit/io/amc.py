@@ -937,11 +937,8 @@ def _conjugated(c_quat, m: Rotation) -> np.ndarray:
 
 def companion_asf(amc: str | Path) -> Path | None:
     """The CMU companion skeleton an AMC take is read with when none is given: ``<stem>.asf`` or
-    ``<subject>.asf`` beside it (``86_01.amc`` -> ``86.asf``), or None."""
-    return _companion_asf(Path(amc))
-
-
-def _companion_asf(amc: Path) -> Path | None:
+    ``<subject>.asf`` beside it (``86_01.amc`` -> ``86.asf``), when it exists, else None."""
+    amc = Path(amc)
     stem = amc.stem
     cands = [stem, stem.split("_", 1)[0]]
     for c in dict.fromkeys(cands):
@@ -961,7 +958,7 @@ def load_amc_for_cli(path: str | Path, asf: str | Path | None = None, rate: floa
     """
     p = Path(path)
     if asf is None:
-        found = _companion_asf(p)
+        found = companion_asf(p)
         if found is None:
             subject = p.stem.split("_", 1)[0]
             raise InvalidParameterError(

@@ -317,6 +317,23 @@ def _load(path: Path, data: bytes | None = None) -> tuple[dict, bytes]:
         raise MocapFormatError(src, None, str(exc)) from None
 
 
+def external_buffer(path: Path) -> Path | None:
+    """The file of buffer 0 of a ``.gltf`` (its ``uri`` beside it), or ``None`` (embedded, a GLB, or
+    unreadable: the reader reports bad content). Used to check it as an input."""
+    try:
+        raw = Path(path).read_bytes() if Path(path).stat().st_size <= MAX_FILE_BYTES else b""
+        if raw[:4] == b"glTF":
+            return None
+        doc = _json(raw)
+        buffers = doc.get("buffers") if isinstance(doc, dict) else None
+        uri = buffers[0].get("uri") if isinstance(buffers, list) and buffers and isinstance(buffers[0], dict) else None
+    except (OSError, _Bad, ValueError):
+        return None
+    if not isinstance(uri, str) or uri.startswith("data:"):
+        return None
+    return Path(path).parent / uri
+
+
 def _list(d: dict, key: str) -> list:
     v = d.get(key, [])
     if not isinstance(v, list):

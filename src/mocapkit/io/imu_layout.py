@@ -7,7 +7,7 @@ line, comments (``//``, ``#``), ``Key:,value`` metadata (read for a sample rate)
 under the header with no number in their time and orientation cells (at most
 :data:`MAX_DESCRIPTOR_ROWS`: units, ``CAL``/``RAW``) are read for the time unit and listed in the
 warnings; a row with a date or text in another column (``Date``, ``loggingTime(txt)``) is data.
-OptiTrack's multi-row header is handled by :mod:`mocapkit.io.imu_vendors`.
+OptiTrack's and APDM ``Format=7``'s multi-row headers are handled by :mod:`mocapkit.io.imu_vendors`.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from mocapkit.io.imu_columns import (
     sniff_delimiter,
     split_fields,
 )
-from mocapkit.io.imu_vendors import is_optitrack, optitrack_columns, vendor_label
+from mocapkit.io.imu_vendors import apdm7_columns, is_apdm7, is_optitrack, optitrack_columns, vendor_label
 
 __all__ = ["EXPECTED", "Layout", "MAX_DESCRIPTOR_ROWS", "find_layout"]
 
@@ -143,6 +143,11 @@ def find_layout(lines: Sequence[str], end: int, src: str, rate: float | None,
                 axis, names, sensors, file_rate, warnings = optitrack_columns(lines, i, end, src, opts)
                 preamble.append(i)
                 header, delim, optitrack = axis, ",", True
+                break
+            if is_apdm7(raw):
+                header, names, sensors, warnings = apdm7_columns(lines, i, end, src, opts)
+                preamble.append(i)
+                delim = ","
                 break
         d = sep if sep is not None else sniff_delimiter(raw)
         fields = split_fields(raw, d)

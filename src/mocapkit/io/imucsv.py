@@ -72,6 +72,7 @@ from mocapkit.io.imu_columns import ColumnOptions
 from mocapkit.io.imu_layout import EXPECTED, Layout, find_layout
 from mocapkit.io.imu_lines import Block, file_blocks, open_input, text_blocks
 from mocapkit.io.imu_rows import MIN_STEP, RowReader
+from mocapkit.io.imu_sessions import drop_derived, legacy_xio_rate, missing_devices, registers_file, session_file
 from mocapkit.io.numbers import MAX_ABS
 from mocapkit.motion import Signal
 
@@ -384,6 +385,21 @@ def _named(sigs: dict[str, Signal], name: str) -> dict[str, Signal]:
     return {f"{name}/{k}": s for k, s in sigs.items()}
 
 
+def _read_sensor_file(f: Path, rate: float | None, opts: ColumnOptions) -> dict[str, Signal]:
+    """One orientation file of a folder; a legacy x-io file takes its rate from ``<prefix>_Registers.csv``."""
+    regs = registers_file(f) if detect_format(f, opts) == "x-io-legacy" else None
+    if regs is None:
+        return read_imu_file(f, rate, options=opts)
+    r, how = legacy_xio_rate(regs)
+    if rate is not None and _check_rate_arg(rate) != r:
+        raise MocapFormatError(str(regs), None, f"the registers state a quaternion rate of {r:g} Hz but "
+                               f"--rate {rate:g} was given; drop --rate or correct the file")
+    sigs = read_imu_file(f, r, options=opts)
+    for sig in sigs.values():
+        sig.meta["rate_from"] = how
+    return sigs
+
+
 def read_sensor_folder(path: str | Path, rate: float | None = None, *, options: ColumnOptions | None = None,
                        **columns) -> dict[str, Signal]:
     """Read a folder of sensors, sorted by name.
@@ -391,6 +407,11 @@ def read_sensor_folder(path: str | Path, rate: float | None = None, *, options: 
     Either one sub-folder per sensor (name = sub-folder name), each holding exactly one file with
     orientation columns (other files, such as x-io ``Inertial.csv``, are ignored), or one file per
     sensor (``*.csv``, ``*.txt``; name = file stem, ``stem/sensor`` for files holding several).
+
+    x-io files (:mod:`~mocapkit.io.imu_sessions`): an Euler or matrix file beside the quaternion file
+    of the same prefix is skipped; a legacy ``<prefix>_Quaternion.csv`` takes its rate from
+    ``<prefix>_Registers.csv``; an NGIMU ``Session.xml`` listing devices without a sub-folder adds a
+    warning naming them to every signal's ``meta["warnings"]``.
     """
     folder = Path(path)
     src = str(folder)
@@ -413,12 +434,14 @@ def read_sensor_folder(path: str | Path, rate: float | None = None, *, options: 
                 src, None, "has both sensor sub-folders and data files ("
                 + ", ".join(f.name for f in files[:5]) + "); use one sub-folder per sensor or one file per sensor",
             )
+        session = session_file(folder)
+        lost = missing_devices(session, [d.name for d in subdirs]) if session is not None else None
         for sub in subdirs:
             try:
                 candidates = _data_files(sub)
             except OSError as exc:
                 raise MocapFormatError(str(sub), None, f"cannot list the folder: {exc.strerror or exc}") from None
-            quat = [f for f in candidates if detect_format(f, opts) is not None]
+            quat, derived = drop_derived([f for f in candidates if detect_format(f, opts) is not None])
             if not quat:
                 looked = ", ".join(f.name for f in candidates) or "no *.csv or *.txt files"
                 raise MocapFormatError(
@@ -430,21 +453,26 @@ def read_sensor_folder(path: str | Path, rate: float | None = None, *, options: 
                     str(sub), None, "sensor folder with several quaternion files ("
                     + ", ".join(f.name for f in quat) + "); keep exactly one",
                 )
-            out.update(_named(read_imu_file(quat[0], rate, options=opts), sub.name))
+            for key, sig in _named(_read_sensor_file(quat[0], rate, opts), sub.name).items():
+                if derived:
+                    sig.meta["skipped_files"] = derived
+                if lost:
+                    sig.meta["warnings"].append(lost)
+                out[key] = sig
         return out
 
     if not files:
         raise MocapFormatError(
             src, None, "no sensors: expected one sub-folder per sensor or one *.csv/*.txt file per sensor"
         )
-    quat_files = [f for f in files if detect_format(f, opts) is not None]
+    quat_files, derived = drop_derived([f for f in files if detect_format(f, opts) is not None])
     skipped = [f.name for f in files if f not in quat_files]
     if not quat_files:
         raise MocapFormatError(
             src, None, "no quaternion file among " + ", ".join(f.name for f in files) + f"; looked for {EXPECTED}",
         )
     for f in quat_files:  # other CSVs (e.g. x-io Inertial.csv) are not orientation data: listed in meta
-        for key, sig in _named(read_imu_file(f, rate, options=opts), f.stem).items():
+        for key, sig in _named(_read_sensor_file(f, rate, opts), f.stem).items():
             if key in out:
                 raise MocapFormatError(src, None, f"two files for sensor {key!r}; keep one")
             if skipped:
@@ -476,7 +504,8 @@ def load_signals(path: str | Path, rate: float | None = None, *, options: Column
     """Load every signal from a file or a sensor folder, as ``{name: Signal}``.
 
     A folder goes to :func:`read_sensor_folder`; a file to the reader registered for its suffix in
-    :data:`READERS` (the IMU CSV reader for ``.csv``, ``.txt`` and unknown suffixes). The column
+    :data:`READERS` (the IMU CSV reader for ``.csv``, ``.txt`` and unknown suffixes; a legacy x-io
+    ``<prefix>_Quaternion.csv`` takes its rate from ``<prefix>_Registers.csv`` beside it). The column
     overrides (``time_column``, ``quaternion_columns``, ``scalar_last``, ``time_unit``, or
     ``options``) apply to IMU CSV files only.
     """
@@ -488,7 +517,7 @@ def load_signals(path: str | Path, rate: float | None = None, *, options: Column
         return read_sensor_folder(p, rate=rate, options=opts)
     reader = READERS.get(p.suffix.lower(), _read_imu_file)
     if reader is _read_imu_file:
-        return read_imu_file(p, rate, options=opts)
+        return _read_sensor_file(p, rate, opts)
     if opts.any:
         raise InvalidParameterError(
             f"{p}: --time-column/--quaternion-columns/--scalar-last/--time-unit apply to IMU CSV files only"

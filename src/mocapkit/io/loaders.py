@@ -77,6 +77,61 @@ def load_motion(path: str | Path, asf: str | Path | None = None, rate: float | N
     raise MocapFormatError(str(p), None, f"not a skeletal motion file (expected {', '.join(SKELETAL_SUFFIXES)})")
 
 
+def companions(path: str | Path, *, asf: str | Path | None = None,
+               labels_beside: bool = False) -> list[Path]:
+    """The files read implicitly with ``path`` (inputs too: an output must never replace them).
+
+    The ASF beside a CMU-named AMC (``<stem>.asf`` / ``<subject>.asf``) when no ``asf`` is given; the
+    ``<stem>.labels.txt`` of a take with ``labels_beside`` (``segment``); the external buffer of a
+    ``.gltf``; a legacy x-io file's ``<prefix>_Registers.csv``; a sensor folder's ``Session.xml`` and
+    ``*_Registers.csv`` (:func:`mocapkit.io.imu_sessions.folder_companions`). Files that do not
+    exist are not listed; nothing here raises for bad content (the reader reports it).
+    """
+    p = Path(path)
+    out: list[Path] = []
+    try:
+        if p.is_dir():
+            from mocapkit.io.imu_sessions import folder_companions
+
+            return folder_companions(p)
+        if not p.is_file():
+            return []
+        s = p.suffix.lower()
+        if s == ".amc" and asf is None:
+            from mocapkit.io.amc import companion_asf
+
+            found = companion_asf(p)
+            out += [found] if found is not None else []
+        if labels_beside and p.with_name(p.stem + ".labels.txt").is_file():
+            out.append(p.with_name(p.stem + ".labels.txt"))
+        if s == ".gltf":
+            from mocapkit.io.gltf import external_buffer
+
+            buf = external_buffer(p)
+            out += [buf] if buf is not None else []
+        if s in (".csv", ".txt"):
+            from mocapkit.io.imu_sessions import registers_file
+            from mocapkit.io.imucsv import detect_format
+
+            regs = registers_file(p)
+            if regs is not None and detect_format(p) == "x-io-legacy":
+                out.append(regs)
+    except OSError:
+        pass
+    return out
+
+
+def inputs_with_companions(inputs) -> list[Path]:
+    """``inputs`` (paths or ``None``) followed by the companions of each (:func:`companions`); an ``.asf``
+    among the inputs is the skeleton given with ``--asf``, so no AMC's beside-ASF is added."""
+    given = [Path(i) for i in inputs if i is not None]
+    asf = next((i for i in given if i.suffix.lower() == ".asf"), None)
+    out = list(given)
+    for i in given:
+        out += [c for c in companions(i, asf=asf) if c not in out]
+    return out
+
+
 def unit_cm(motion: Motion, given: float | None) -> tuple[float, bool]:
     """Centimetres per file length unit: the user's value, else the file's (ASF), else 1 (assumed)."""
     if given is not None:

@@ -8,6 +8,9 @@ Line 1 ``PathFileType<TAB>4<TAB>(X/Y/Z)<TAB><name>``, line 2 the header keys (``
 ``<TAB><TAB>X1<TAB>Y1<TAB>Z1<TAB>X2...``, then (after an optional blank line) one row per frame.
 :func:`read_trc` follows the rows, not the header, where real files disagree with it:
 
+* a TRC saved by a spreadsheet is read the same: when the first line has no tab but a comma, every line
+  is split as CSV (``"..."`` quoting; the empty cells that pad short rows are ignored as trailing tabs
+  are; ``meta["delimiter"]`` says which);
 * labels are the non-empty cells of line 4 after ``Time`` (files space them by one, two or three
   tabs); line 5 must hold ``3 x`` that many coordinate names;
 * an empty cell (or ``NaN``) is a missing coordinate; a row with fewer cells than ``2 + 3M`` is
@@ -65,6 +68,7 @@ Damaged and hostile files
 
 from __future__ import annotations
 
+import csv
 import math
 from pathlib import Path
 
@@ -162,19 +166,33 @@ _TRC_KEYS = ("DataRate", "CameraRate", "NumFrames", "NumMarkers", "Units", "Orig
              "OrigDataStartFrame", "OrigNumFrames")
 
 
+def _trc_splitter(first_line: str):
+    """How the cells of a TRC are split: on tabs (OpenSim), or as CSV when the first line has no tab and
+    a comma (a TRC saved by a spreadsheet: ``"..."`` quoting, trailing commas padding every row)."""
+    if "\t" in first_line or "," not in first_line:
+        return "\t", lambda ln: ln.split("\t")
+
+    def split_csv(ln: str) -> list[str]:
+        if '"' not in ln:
+            return ln.split(",")
+        return next(csv.reader([ln]))
+    return ",", split_csv
+
+
 def read_trc(path: str | Path) -> Markers:
     """Read an OpenSim TRC marker file into :class:`mocapkit.markers.Markers` (see the module doc)."""
     p = Path(path)
     src = str(p)
     txt = _Text(p, "TRC file", 5)
     lines, enc = txt.lines, txt.encoding
-    if not lines or not lines[0].split("\t")[0].strip().lower().startswith("pathfiletype"):
+    delim, split = _trc_splitter(lines[0] if lines else "")
+    if not lines or not split(lines[0])[0].strip().lower().startswith("pathfiletype"):
         raise MocapFormatError(src, 1, "not a TRC file (the first line must start with 'PathFileType')")
     if len(lines) < 5:
         raise MocapFormatError(src, len(lines) or 1, "the TRC header needs 5 lines (PathFileType, keys, "
                                "values, marker names, coordinate names)")
-    keys = [k.strip() for k in lines[1].split("\t")]
-    vals = [v.strip() for v in lines[2].split("\t")]
+    keys = [k.strip() for k in split(lines[1])]
+    vals = [v.strip() for v in split(lines[2])]
     header = {k: (vals[i] if i < len(vals) else "") for i, k in enumerate(keys) if k}
     low = {k.lower(): v for k, v in header.items()}
     warnings: list[str] = []
@@ -200,7 +218,8 @@ def read_trc(path: str | Path) -> Markers:
         raise MocapFormatError(src, 3, f"DataRate must be > 0 (between {RATE_RANGE[0]:g} and {RATE_RANGE[1]:g} "
                                f"Hz), got {rate!r}")
     units = low.get("units", "")
-    meta: dict = {"format": "trc", "header": header, "encoding": enc}
+    meta: dict = {"format": "trc", "header": header, "encoding": enc, "delimiter": delim}
+    sep = "<TAB>" if delim == "\t" else ","
     if not units:
         units = "mm"
         meta["units_assumed"] = True
@@ -208,14 +227,14 @@ def read_trc(path: str | Path) -> Markers:
     n_frames_decl = num("NumFrames", integer=True)
     n_markers_decl = num("NumMarkers", integer=True)
 
-    names = lines[3].split("\t")
+    names = split(lines[3])
     if len(names) < 2 or names[0].strip().lower() != "frame#" or names[1].strip().lower() != "time":
-        raise MocapFormatError(src, 4, "line 4 must start with 'Frame#<TAB>Time' followed by the marker names")
+        raise MocapFormatError(src, 4, f"line 4 must start with 'Frame#{sep}Time' followed by the marker names")
     raw_labels = [c.strip() for c in names[2:] if c.strip()]
     m = len(raw_labels)
     if n_markers_decl is not None and n_markers_decl != m:
         warnings.append(f"NumMarkers is {n_markers_decl} but line 4 names {m} markers; {m} read")
-    coords = [c.strip() for c in lines[4].split("\t") if c.strip()]
+    coords = [c.strip() for c in split(lines[4]) if c.strip()]
     if len(coords) != 3 * m:
         raise MocapFormatError(src, 5, f"expected {3 * m} coordinate names (X1 Y1 Z1 ... for {m} markers), "
                                f"found {len(coords)}")
@@ -237,11 +256,11 @@ def read_trc(path: str | Path) -> Markers:
     short = 0
     for r, i in enumerate(body):
         ln = lines[i]
-        cells = ln.split("\t")
+        cells = split(ln)
         if len(cells) > width:
             extra = cells[width:]
             if any(c.strip() for c in extra):
-                raise MocapFormatError(src, i + 1, f"expected {width} tab-separated cells (Frame#, Time and "
+                raise MocapFormatError(src, i + 1, f"expected {width} {'tab' if delim == chr(9) else 'comma'}-separated cells (Frame#, Time and "
                                        f"{m} x 3 coordinates), found {len(cells)}")
             cells = cells[:width]
         elif len(cells) < width:
@@ -253,7 +272,7 @@ def read_trc(path: str | Path) -> Markers:
         for j in range(width):
             row[j] = _number(cells[j], src, i + 1, field[j])
         if cut and r == last:
-            _check_cut([lines[k].split("\t") for k in body[max(0, r - 20):r]], ln.split("\t"), src, i + 1,
+            _check_cut([split(lines[k]) for k in body[max(0, r - 20):r]], split(ln), src, i + 1,
                        field, warnings)
     times = data[:, 1]
     _check_times(times, src, row_lines)

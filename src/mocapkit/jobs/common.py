@@ -52,11 +52,16 @@ def output_entry(path: Path, fmt: str, bound: float | None = None, bound_unit: s
 
 def check_outputs(path: Path, *outputs: tuple[Optional[Path], str], inputs=(), folder: bool = False) -> None:
     """Refuse, before any work, outputs that cannot be written or would overwrite an input
-    (:func:`mocapkit.io.atomic.check_output`); ``outputs`` are ``(path, option name)`` pairs."""
+    (:func:`mocapkit.io.atomic.check_output`); ``outputs`` are ``(path, option name)`` pairs. The files
+    read implicitly with the inputs (:func:`mocapkit.io.loaders.companions`) are inputs too."""
     from mocapkit.io.atomic import check_output
+    from mocapkit.io.loaders import inputs_with_companions
 
+    if all(out is None for out, _ in outputs):
+        return
+    every = inputs_with_companions([path, *inputs])
     for out, option in outputs:
-        check_output(out, [path, *inputs], folder=folder, option=option)
+        check_output(out, every, folder=folder, option=option)
 
 
 def sensor_outputs(folder: Path, names: list[str], path: Path, inputs=()) -> tuple[dict[str, Path], list[str]]:

@@ -20,7 +20,8 @@ from mocapkit.errors import InvalidParameterError
 #: files that accompany recordings: (name ending, reason reported)
 COMPANIONS = ((".asf", "ASF skeleton (read with the AMC takes beside it)"),
               (".labels.txt", "reference labels of a take"),
-              (".mocapkit.toml", "reading options of the take beside it (a batch's sidecar)"))
+              (".mocapkit.toml", "reading options of the take beside it (a batch's sidecar)"),
+              ("_registers.csv", "x-io register file (read with the quaternion file beside it)"))
 _GLOB_MAGIC = ("*", "?", "[")
 
 
@@ -54,12 +55,15 @@ def _companion(name: str) -> str | None:
 def is_sensor_folder(folder: str | os.PathLike[str]) -> bool:
     """A folder of sensors in the layout of x-io's exports: only sub-folders (hidden names aside), each
     holding CSV/TXT files only, exactly one of them with orientation columns (``Quaternion.csv``; the others,
-    e.g. ``Inertial.csv``, are ignored by :func:`mocapkit.io.imucsv.read_sensor_folder`). Such a folder is one
-    recording whose sensors are named after the sub-folders."""
+    e.g. ``Inertial.csv``, are ignored by :func:`mocapkit.io.imucsv.read_sensor_folder`; so are an x-io
+    ``euler.csv``/``matrix.csv`` beside ``quaternion.csv``), and an NGIMU ``Session.xml`` at the top. Such a
+    folder is one recording whose sensors are named after the sub-folders."""
+    from mocapkit.io.imu_sessions import SESSION_XML, drop_derived
     from mocapkit.io.imucsv import detect_format
 
     try:
         entries = [e for e in os.scandir(folder) if not e.name.startswith(".")]
+        entries = [e for e in entries if not (e.name.lower() == SESSION_XML.lower() and e.is_file())]
         if not entries or not all(e.is_dir(follow_symlinks=False) for e in entries):
             return False
         for sub in entries:
@@ -67,7 +71,8 @@ def is_sensor_folder(folder: str | os.PathLike[str]) -> bool:
             if not files or not all(e.is_file() and os.path.splitext(e.name)[1].lower() in (".csv", ".txt")
                                     for e in files):
                 return False
-            if sum(detect_format(e.path) is not None for e in files) != 1:
+            kept, _ = drop_derived([Path(e.path) for e in files if detect_format(e.path) is not None])
+            if len(kept) != 1:
                 return False
     except OSError:
         return False

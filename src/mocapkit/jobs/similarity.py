@@ -61,6 +61,15 @@ def check_options(limbs=None, frames=None, frames_b=None, align: str = "limb", b
         raise InvalidParameterError(f"--resample {resample!r}: a number of samples >= 2")
 
 
+def _motionless_warnings(still: list[list[bool]], names: list[str], paths: list[Path]) -> list[str]:
+    """A warning for takes whose compared limb angles all stand still (no correlation is defined)."""
+    if all(still[0]) and all(still[1]):
+        return [f"both takes are motionless ({', '.join(names)} do not change in {paths[0]} nor in {paths[1]}): "
+                "no correlation is defined (r is null)"]
+    return [f"{p}: the take is motionless ({', '.join(names)} do not change): no correlation with it is defined "
+            "(r is null)" for p, st in zip(paths, still) if all(st)]
+
+
 def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: list[str] | None = None,
                    frames: str | None = None, frames_b: str | None = None, rate: float | None = None,
                    joint: list[str] | None = None, align: str = "limb", band: int | None = None,
@@ -73,7 +82,7 @@ def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: 
     from mocapkit.io.loaders import load_motion
     from mocapkit.jobs.segment import pairs
     from mocapkit.segment.features import LIMB_NAMES, motion_features
-    from mocapkit.segment.similarity import PAPER_THRESHOLD, min_band, sequence_similarity
+    from mocapkit.segment.similarity import PAPER_THRESHOLD, is_constant, min_band, sequence_similarity
 
     check_options(limbs, frames, frames_b, align, band, resample)
     path, path_b = Path(path), Path(path_b)
@@ -101,11 +110,14 @@ def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: 
                                     f"{min_band(len(A), len(B))} samples (half their length ratio)")
     with progress(f"DTW of {len(A)} x {len(B)} frames ({align})", None):
         ps = sequence_similarity(A, B, align=align, band=band, resample=resample)
+    still = [[is_constant(X[:, k]) for k in range(len(names))] for X in (A, B)]
+    warnings += _motionless_warnings(still, names, [path, path_b])
     rows = []
     for k, nm in enumerate(names):
         r = float(ps.r[k])
-        if not math.isfinite(r):
-            warnings.append(f"{nm}: the angle is constant along the path in one take; its correlation is undefined")
+        if not math.isfinite(r) and not (all(still[0]) or all(still[1])):
+            which = " and ".join(str(p) for p, st in zip((path, path_b), still) if st[k]) or "one take"
+            warnings.append(f"{nm}: the angle does not change in {which}; its correlation is undefined")
         rows.append({"limb": nm, "r": r if math.isfinite(r) else None,
                      "similarity_pct": 100.0 * r if math.isfinite(r) else None,
                      "distance_deg": float(ps.distance[k]), "path_length": int(ps.path_length[k])})

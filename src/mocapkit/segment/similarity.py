@@ -196,20 +196,38 @@ def time_normalise(x, length: int) -> np.ndarray:
     return out[:, 0] if np.ndim(x) == 1 else out
 
 
+#: A series whose RMS deviation from its mean is at most this fraction of its size (its largest magnitude,
+#: at least 1 unit: 1° for limb angles) is constant. What varies below is float rounding (forward
+#: kinematics of identical frames gives limb angles with an RMS deviation near 1e-13°), never motion
+#: (1e-9 of 180° is 2e-7°, far below any capture's resolution); a correlation of it would be noise.
+REL_VARIATION = 1e-9
+
+
+def is_constant(x) -> bool:
+    """True when ``x`` (1-D) varies by no more than :data:`REL_VARIATION` of its size (see there)."""
+    x = np.asarray(x, dtype=np.float64)
+    if x.size == 0:
+        return True
+    dx = x - x.mean()
+    rms = math.sqrt(float(dx @ dx) / x.size)
+    return rms <= REL_VARIATION * max(1.0, float(np.max(np.abs(x))))
+
+
 def pearson(x, y) -> float:
-    """Pearson's correlation of two equal-length 1-D arrays; NaN when either is constant."""
+    """Pearson's correlation of two equal-length 1-D arrays; NaN when either is constant
+    (:func:`is_constant`: a variation of float rounding only)."""
     x = np.asarray(x, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
+    if is_constant(x) or is_constant(y):
+        return math.nan
     dx, dy = x - x.mean(), y - y.mean()
     sxx, syy = float(dx @ dx), float(dy @ dy)
-    if sxx <= 0.0 or syy <= 0.0:
-        return math.nan
     return float(np.clip((dx @ dy) / math.sqrt(sxx * syy), -1.0, 1.0))
 
 
 def aligned_correlation(a, b, path) -> np.ndarray:
     """Eq. 9 r_θ per column: Pearson's correlation of ``a[e_k]`` and ``b[f_k]`` along ``path``
-    (``(K, 2)``). Returns ``(d,)`` (NaN for a column constant along the path)."""
+    (``(K, 2)``). Returns ``(d,)`` (NaN for a column constant along the path, :func:`is_constant`)."""
     A, B = _as_sequence(a, "a"), _as_sequence(b, "b")
     p = np.asarray(path, dtype=np.int64)
     x, y = A[p[:, 0]], B[p[:, 1]]

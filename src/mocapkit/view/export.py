@@ -60,8 +60,9 @@ def _check_out(out: Path, inputs) -> tuple[str, os.stat_result | None]:
     """The final file to replace (symlinks followed) and its stat, or an error naming ``out`` (its folder
     missing or not writable, a folder, an input file, inside an input folder...)."""
     from mocapkit.io.atomic import check_output
+    from mocapkit.io.loaders import inputs_with_companions
 
-    check_output(out, list(inputs), option="--export")
+    check_output(out, inputs_with_companions(inputs), option="--export")
     try:
         st = os.stat(out)
     except FileNotFoundError:

@@ -24,14 +24,42 @@ def is_points_csv(path: Path) -> bool:
     return tuple(c.strip() for c in head.split(",")) == POINTS_HEADER
 
 
+#: The header of the points CSV that ``compress -o`` writes (the kept samples at their own times).
+COMPRESS_POINTS_HEADER = ("time", "w", "x", "y", "z")
+
+
+def is_compress_points(path: Path) -> bool:
+    """A CSV with exactly the header of ``compress -o`` (``time,w,x,y,z``): maybe the points of an original."""
+    if path.suffix.lower() != ".csv" or not path.is_file():
+        return False
+    with open(path, "rb") as fh:
+        head = fh.readline(256).decode("utf-8", "replace").strip().lstrip("\ufeff")
+    return tuple(c.strip().lower() for c in head.split(",")) == COMPRESS_POINTS_HEADER
+
+
+def points_of(signal, original_times: np.ndarray) -> "Points | None":
+    """``signal`` as the segment points of a recording sampled at ``original_times``, when it is one:
+    fewer samples, the same first and last time, every time one of the original's (``compress -o`` writes
+    the kept samples' times as they were read); else ``None``."""
+    t = np.asarray(signal.times, dtype=np.float64)
+    ot = np.asarray(original_times, dtype=np.float64)
+    if not (2 <= len(t) < len(ot)) or t[0] != ot[0] or t[-1] != ot[-1]:
+        return None
+    ticks = np.searchsorted(ot, t)
+    if np.any(ticks >= len(ot)) or not np.array_equal(ot[np.minimum(ticks, len(ot) - 1)], t):
+        return None
+    return Points(signal.name, ticks, signal.values, np.zeros(len(t), dtype=bool), None, None, times=t, in_time=True)
+
+
 class Points:
     """One sensor's compressed points: ticks (sample indices), unit quaternions, lost-packet marks and
     the times of the ticks when the file has them (``times_of(ticks)`` otherwise from rate and t0);
     ``samples``: the stream's sample count when the file says (a ``.mkp`` stream whose end arrived)."""
 
     def __init__(self, name: str, ticks, values, gap_before, t0: float | None, rate: float | None,
-                 times=None, bound_deg: float | None = None, samples: int | None = None):
+                 times=None, bound_deg: float | None = None, samples: int | None = None, in_time: bool = False):
         self.name, self.t0, self.rate, self.bound_deg, self.samples = name, t0, rate, bound_deg, samples
+        self.in_time = in_time  # decoded by SLERP in time (the kept samples of ``compress -o``), not in ticks
         self.ticks = np.asarray(ticks, dtype=np.float64)
         self.values = np.asarray(values, dtype=np.float64)
         self.gap_before = np.asarray(gap_before, dtype=bool)
@@ -83,9 +111,12 @@ def _line_of_row(path: Path, k: int) -> int | None:
         return next((i for j, i in enumerate(rows) if j == k), None)
 
 
-def decode(points: Points, n: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def decode(points: Points, n: int | None, at_times: np.ndarray | None = None
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(ticks, decoded (m, 4) with NaN rows where a gap is not bridged, keyframe ticks)`` at every
-    sample ``0..n-1`` of the original (or from the first to the last point without one)."""
+    sample ``0..n-1`` of the original (or from the first to the last point without one). ``at_times``:
+    the original's sample times, used for points read ``in_time`` (``compress -o``): SLERP in time, as
+    ``decompress --times-from`` decodes them (irregular clocks included)."""
     from mocapkit.jobs.packets import decode_at
 
     if len(points.ticks) == 0:
@@ -93,7 +124,10 @@ def decode(points: Points, n: int | None) -> tuple[np.ndarray, np.ndarray, np.nd
         return np.arange(m, dtype=np.float64), np.full((m, 4), np.nan), points.ticks
     u = (np.arange(n, dtype=np.float64) if n is not None
          else np.arange(points.ticks[0], points.ticks[-1] + 1, dtype=np.float64))
-    keep, vals = decode_at(points.ticks, points.values, points.gap_before, u)
+    if at_times is not None and points.in_time:
+        keep, vals = decode_at(points.times, points.values, points.gap_before, np.asarray(at_times, np.float64))
+    else:
+        keep, vals = decode_at(points.ticks, points.values, points.gap_before, u)
     out = np.full((len(u), 4), np.nan)
     out[keep] = vals
     return u, out, points.ticks

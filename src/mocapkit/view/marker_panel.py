@@ -3,7 +3,6 @@ evaluated at the marker file's times with their knots (the start of every piece 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -15,13 +14,9 @@ from mocapkit.view.arrays import encode_array
 
 def read_filter_json(path: Path) -> list[dict]:
     """The signals of a ``filter --json`` output (its list, or a record with ``signals``)."""
-    from mocapkit.io.textinput import decode_text, read_input
+    from mocapkit.view.json_input import read_json
 
-    text, _ = decode_text(read_input(path, "filter JSON"))
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise MocapFormatError(str(path), e.lineno, f"not JSON ({e.msg})") from None
+    doc = read_json(path, "filter JSON")
     sigs = doc.get("signals") if isinstance(doc, dict) else doc
     if not isinstance(sigs, list) or not all(isinstance(s, dict) for s in sigs):
         raise MocapFormatError(str(path), None, "expected the output of `mocapkit filter --json` (a list of signals)")

@@ -4,7 +4,6 @@ its decode (error per joint); a ``.mkp`` or points CSV after an IMU file is its 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -48,13 +47,9 @@ def file_kind(path: Path) -> str:
 
 def read_segments(path: Path) -> dict:
     """The cuts and segments of a ``segment --json`` output, checked."""
-    from mocapkit.io.textinput import decode_text, read_input
+    from mocapkit.view.json_input import read_json
 
-    text, _ = decode_text(read_input(path, "segments JSON"))
-    try:
-        rec = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise MocapFormatError(str(path), e.lineno, f"not JSON ({e.msg})") from None
+    rec = read_json(path, "segments JSON")
     if not isinstance(rec, dict) or rec.get("job") != "segment" or not isinstance(rec.get("segments"), list):
         raise MocapFormatError(str(path), None, "expected the output of `mocapkit segment --json` (a record with "
                                "job \"segment\", cuts and segments)")
@@ -64,7 +59,7 @@ def read_segments(path: Path) -> dict:
                  "label": None if s.get("label") is None else str(s["label"]),
                  "action": None if s.get("action") is None else str(s["action"])} for s in rec["segments"]]
         n_frames = int(rec["n_frames"])
-    except (KeyError, TypeError, ValueError) as e:
+    except (KeyError, TypeError, ValueError, OverflowError) as e:
         raise MocapFormatError(str(path), None, f"a cut or segment lacks a field or a number ({e})") from None
     return {"file": str(rec.get("file", "")), "method": rec.get("method"), "n_frames": n_frames,
             "rate_hz": rec.get("rate_hz"), "cuts": cuts, "segments": segs}
@@ -123,8 +118,9 @@ def _check_pairing(path: Path, opath: Path, name: str, pts, times: np.ndarray) -
 
 
 class _Builder:
-    def __init__(self, asf, unit_cm, strict, rate):
+    def __init__(self, asf, unit_cm, strict, rate, columns):
         self.asf, self.unit_cm, self.strict, self.rate = asf, unit_cm, strict, rate
+        self.columns = {k: v for k, v in (columns or {}).items() if v is not None and v is not False}
         self.panels: list[dict] = []
         self.notes: list[str] = []
         # originals: id, path, motion, unit (cm), positions in file units (forward kinematics done once)
@@ -189,7 +185,18 @@ class _Builder:
     def imu_file(self, path: Path) -> None:
         from mocapkit.io import load_signals
 
-        signals = load_signals(path)
+        if imu.is_compress_points(path) and self.imus:  # `compress -o` points: own times, no reading options
+            signals = load_signals(path)
+            _, opath, osigs = self.imus[-1]
+            if len(signals) == 1 and len(osigs) == 1:
+                pts = imu.points_of(next(iter(signals.values())), next(iter(osigs.values())).times)
+                if pts is not None:
+                    self.notes.append(f"{path.name}: {len(pts.ticks)} samples of {opath.name} at their times: drawn as "
+                                      "its compression's points (decoded by SLERP)")
+                    self.compressed(path, "points", {path.stem: pts})
+                    return
+        else:
+            signals = load_signals(path, rate=self.rate, **self.columns)
         pid = self.pid()
         sensors = []
         for name, sig in signals.items():
@@ -199,9 +206,10 @@ class _Builder:
         self.imus.append((pid, path, signals))
         self.panels.append(imu.imu_panel(pid, path, sensors, next(iter(signals.values())).times))
 
-    def compressed(self, path: Path, kind: str) -> None:
-        points, losses = imu.read_packets(path) if kind == "packets" else imu.read_points_csv(path)
-        self.notes.extend(losses)
+    def compressed(self, path: Path, kind: str, points: dict | None = None) -> None:
+        if points is None:
+            points, losses = imu.read_packets(path) if kind == "packets" else imu.read_points_csv(path)
+            self.notes.extend(losses)
         orig = self.imus[-1] if self.imus else None
         if orig is not None:
             opid, opath, signals = orig
@@ -228,7 +236,7 @@ class _Builder:
                     continue
                 sig = signals[name]
                 _check_pairing(path, opath, name, pts, sig.times)
-                _, dec, kt = imu.decode(pts, len(sig))
+                _, dec, kt = imu.decode(pts, len(sig), sig.times)
                 entry = imu.sensor_entry(name, sig.times, sig.values, dec, sig.times[kt.astype(np.int64)],
                                          pts.bound_deg)
                 panel["sensors"][by_name[name]] = entry
@@ -261,18 +269,20 @@ def _is_compressed(path: Path, kind: str) -> bool:
 
 
 def build_scene(files, *, segments: Path | None = None, filter_json: Path | None = None, asf: Path | None = None,
-                unit_cm: float | None = None, strict: bool = True, rate: float | None = None) -> dict:
+                unit_cm: float | None = None, strict: bool = True, rate: float | None = None,
+                columns: dict | None = None) -> dict:
     """Read ``files`` into the scene of docs/viewer.md: originals in the order given, then the compressed
     files (``.mkc``, glTF, ``.mkp``, points CSV), each paired with the original it decodes.
 
     ``segments``: a ``segment --json`` output of the first file (its cuts and labels go on the timeline);
     ``filter_json``: a ``filter --json`` output of the (first) marker file; ``asf`` and ``rate`` (Hz) for
-    AMC files (CMU's 120 Hz when not given).
+    AMC files (CMU's 120 Hz when not given); ``rate`` and ``columns`` (``time_column``,
+    ``quaternion_columns``, ``scalar_last``, ``time_unit``) read IMU files as ``compress`` does.
     """
     files = [Path(f) for f in files]
     if not files:
         raise InvalidParameterError("give at least one file to view")
-    b = _Builder(asf, unit_cm, strict, rate)
+    b = _Builder(asf, unit_cm, strict, rate, columns)
     fitted_for = None
     kinds = {path: file_kind(path) for path in files}
     # compressed files follow the originals they decode, whatever order they were given in
