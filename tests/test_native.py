@@ -19,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError
 from mocapkit.io import load_signals
@@ -26,7 +28,7 @@ from mocapkit.motion import Signal
 from mocapkit.pla import Encoder, compress, reconstruct
 from mocapkit.pla.base import prepared_values
 from mocapkit.pla.native import NativeEncoder, encode
-from mocapkit.quat import angular_distance, slerp
+from mocapkit.quat import angular_distance, hemisphere_continuous, slerp
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).resolve().parent / "data"
@@ -362,3 +364,184 @@ def test_float64_equals_python_on_random_signals(seed):
         r = encode(t, X, method, k_th, c.max_segment_length or 0, kind == "quaternion")
         assert np.array_equal(c.indices, r.indices), (method, th, maxlen)
         assert np.array_equal(c.values, r.values), (method, th, maxlen)
+
+
+# ---- the checked C API does not trust its input ------------------------------------------------
+
+def _walk(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Irregular times and a quaternion random walk with still stretches and sign flips."""
+    rng = np.random.default_rng(seed)
+    t = 3.0 + np.cumsum(rng.uniform(0.005, 0.02, n))
+    steps = rng.normal(0, 1, (n, 4)) * np.where(rng.random((n, 1)) < 0.4, 1e-4, 0.02)
+    X = np.array([1.0, 0.2, -0.1, 0.3]) + np.cumsum(steps, axis=0)
+    X[rng.random(n) < 0.05] *= -1.0
+    return t, X
+
+
+def _bad_sample(kind: str, t: float, prev_t: float) -> tuple[float, tuple[float, ...], int]:
+    """A sample the checked API must refuse, and its C code."""
+    return {"nan": (t, (0.5, math.nan, 0.5, 0.5), -7), "inf": (t, (math.inf, 0.5, 0.5, 0.5), -7),
+            "-inf": (t, (0.5, 0.5, 0.5, -math.inf), -7), "zero": (t, (0.0, 0.0, 0.0, 0.0), -4),
+            "subnormal": (t, (1e-160,) * 4, -4), "huge": (t, (1e160,) * 4, -4),
+            "nan time": (math.nan, (0.5, 0.5, 0.5, 0.5), -7), "inf time": (math.inf, (0.5, 0.5, 0.5, 0.5), -7),
+            "same time": (prev_t, (0.5, 0.5, 0.5, 0.5), -3)}[kind]
+
+
+BAD_KINDS = ("nan", "inf", "-inf", "zero", "subnormal", "huge", "nan time", "inf time", "same time")
+
+
+def _slerp_angle_max(t, X, idx, P) -> float:
+    """Brute force, float64: the largest rotation angle between a sample and the SLERP between the
+    points around it (points ``P`` at samples ``idx``; the samples as given, any sign)."""
+    worst = 0.0
+    U = X / np.linalg.norm(X, axis=1, keepdims=True)
+    Q = P / np.linalg.norm(P, axis=1, keepdims=True)
+    for k in range(len(idx) - 1):
+        a, b = int(idx[k]), int(idx[k + 1])
+        qa, qb = Q[k], Q[k + 1] * (1.0 if Q[k] @ Q[k + 1] >= 0 else -1.0)
+        om = math.acos(min(1.0, float(qa @ qb)))
+        f = ((t[a:b + 1] - t[a]) / (t[b] - t[a]))[:, None]
+        if om < 1e-12:
+            d = np.broadcast_to(qa, (len(f), 4))
+        else:
+            d = (np.sin((1 - f) * om) * qa + np.sin(f * om) * qb) / math.sin(om)
+        d = d / np.linalg.norm(d, axis=1, keepdims=True)
+        c = np.minimum(1.0, np.abs(np.sum(d * U[a:b + 1], axis=1)))
+        worst = max(worst, float(2 * np.arccos(c).max()))
+    return worst
+
+
+def _segment_errors(t, X, idx, P) -> tuple[float, float]:
+    """Brute force, float64: the largest SSR over a segment's samples (after its first point, up to
+    and including its last) and the largest absolute error of a sample and dimension, against the
+    straight line between the points."""
+    ssr, linf = 0.0, 0.0
+    for k in range(len(idx) - 1):
+        a, b = int(idx[k]), int(idx[k + 1])
+        f = ((t[a + 1:b + 1] - t[a]) / (t[b] - t[a]))[:, None]
+        r = X[a + 1:b + 1] - (P[k] + f * (P[k + 1] - P[k]))
+        ssr = max(ssr, float(np.sum(r * r)))
+        linf = max(linf, float(np.abs(r).max(initial=0.0)))
+    return ssr, linf
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+@pytest.mark.parametrize("method,th", [("anglesw", math.radians(1.0)), ("swing", 0.01), ("cplr", 1e-3),
+                                       ("fastsw", 1e-3), ("sw", 1e-3)])
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(seed=st.integers(0, 2**16), where=st.lists(st.integers(1, 299), min_size=1, max_size=12),
+       kinds=st.lists(st.sampled_from(BAD_KINDS), min_size=12, max_size=12))
+def test_checked_encoder_refuses_bad_samples_and_keeps_the_bound(precision, method, th, seed, where, kinds):
+    """NaN, ±Inf, zero/subnormal/overflowing-norm quaternions and repeated times among good samples:
+    each is refused with its code, the encoder goes on as if it had never come (the same points as
+    the good samples alone), and the bound holds on the decode of every good sample (brute force)."""
+    t, X = _walk(300, seed)
+    Xin = X
+    if precision == "float32":   # the float32 build takes ticks: a NaN tick cannot be, nor a huge float
+        kinds = [k.replace(" time", "") if k in ("nan time", "inf time") else k for k in kinds]
+        kinds = [k for k in kinds if k not in ("subnormal", "huge")] or ["nan"]
+    maxlen = 60 if method in ("sw", "anglesw") else 0
+    enc = NativeEncoder(method, th, 4, True, maxlen, precision)
+    pts, codes = [], []
+    bad_before = sorted(set(where))
+    for i in range(len(t)):
+        for k, w in enumerate(bad_before):
+            if w == i:
+                bt, bx, code = _bad_sample(kinds[k % len(kinds)], t[i], t[i - 1])
+                try:
+                    r = enc.push(bt, bx)
+                    if r is not None:
+                        pts.append(r)
+                    codes.append(0)
+                except InvalidSignalError as exc:
+                    codes.append((code, str(exc)))
+        r = enc.push(t[i], X[i])
+        if r is not None:
+            pts.append(r)
+    r = enc.flush()
+    if r is not None:
+        pts.append(r)
+    idx = np.array([p[0] for p in pts])
+    # indices count accepted samples: with every bad sample refused they are the good samples'
+    assert idx[0] == 0 and idx[-1] == len(t) - 1 and np.all(np.diff(idx) > 0)
+    P = np.array([p[2] for p in pts])
+    X = hemisphere_continuous(X)   # what the encoder approximates (the C does the same)
+    # float32 rounds samples, ticks and sums: the SSR and L-inf bounds hold up to that (anglesw keeps a reserve)
+    tol = 1e-12 if precision == "float64" else 1e-5
+    if method == "anglesw":
+        assert _slerp_angle_max(t, X, idx, X[idx]) <= th + 1e-9
+    elif method == "swing":
+        assert _segment_errors(t, X, idx, P)[1] <= th + tol
+    else:   # fastSW and SW give the samples as passed: their line joins the continuous samples
+        assert _segment_errors(t, X, idx, P if method == "cplr" else X[idx])[0] <= th + tol
+    assert all(c != 0 for c in codes), "a bad sample was accepted"
+    msgs = {-7: "NaN or infinite", -4: "zero-norm", -3: "not after"}
+    assert all(msgs[c] in m for c, m in codes)
+    clean = encode(t, Xin, method, th, maxlen, True, precision)
+    assert np.array_equal(clean.indices, idx)
+    assert np.array_equal(clean.values, P)
+
+
+def _m32_missing() -> str | None:
+    """Why ``gcc -m32`` cannot build and run a program here (Debian: gcc-multilib), or None."""
+    if shutil.which("gcc") is None:
+        return "no gcc"
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        src = Path(d) / "p.c"
+        src.write_text("#include <stdio.h>\nint main(void) { return sizeof(size_t) == 4 ? 0 : 1; }\n")
+        res = subprocess.run(["gcc", "-m32", str(src), "-o", str(Path(d) / "p")], capture_output=True)
+        if res.returncode != 0 or subprocess.run([str(Path(d) / "p")]).returncode != 0:
+            return "gcc -m32 cannot build a 32-bit program (Debian: apt-get install gcc-multilib)"
+    return None
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="no gcc to build the C tests")
+@pytest.mark.parametrize("flags", [[], ["-DMKPLA_FLOAT32"], ["-m32"], ["-m32", "-DMKPLA_FLOAT32"]],
+                         ids=["float64", "float32", "float64-32bit", "float32-32bit"])
+def test_c_selftest_on_the_host(tmp_path, flags):
+    """c/tests/mkpla_selftest.c (sizes that would wrap a 32-bit size_t, refused samples changing nothing,
+    mkp refusing NaN/Inf, float32 ticks deciding alike at any uptime), built with GCC's default
+    flags (gnu17, -ffp-contract=fast: no -std, no -ffp-contract=off) plus warnings as errors."""
+    if "-m32" in flags and (why := _m32_missing()):
+        pytest.skip(why)
+    src = ROOT / "c"
+    exe = tmp_path / "selftest"
+    subprocess.run(["gcc", "-O2", "-Wall", "-Wextra", "-Werror", *flags, f"-I{src / 'mkpla'}",
+                    str(src / "tests" / "mkpla_selftest.c"), str(src / "mkpla" / "mkpla.c"),
+                    str(src / "mkpla" / "mkp.c"), "-lm", "-o", str(exe)], check=True)
+    res = subprocess.run([str(exe)], capture_output=True, text=True)
+    assert res.returncode == 0, res.stdout[-3000:]
+    bits = 32 if "-m32" in flags else 64
+    assert f" 0 failed (size_t of {bits} bits)" in res.stdout
+    assert int(res.stdout.split("mkpla selftest: ")[1].split()[0]) > 500   # the checks ran
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="no gcc")
+@pytest.mark.parametrize("flag", ["-ffast-math", "-ffinite-math-only"])
+def test_c_library_refuses_fast_math(tmp_path, flag):
+    for c in ("mkpla.c", "mkp.c"):
+        res = subprocess.run(["gcc", "-O2", flag, "-c", str(ROOT / "c" / "mkpla" / c), "-o", str(tmp_path / "x.o")],
+                             capture_output=True, text=True)
+        assert res.returncode != 0 and "do not compile with -ffast-math" in res.stderr
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("objdump") is None, reason="no gcc/objdump")
+@pytest.mark.parametrize("flags", [["-DMKPLA_FLOAT32"], []])
+def test_no_fused_multiply_add_even_when_the_flags_ask_for_it(tmp_path, flags):
+    """x86-64 with FMA and -ffp-contract=fast: the sources turn contraction off themselves, so not one
+    fused multiply-add is in the code (a control without the sources' pragma has many)."""
+    def fmas(path: Path) -> int:
+        obj = tmp_path / (path.stem + ".o")
+        subprocess.run(["gcc", "-O2", "-mfma", "-ffp-contract=fast", *flags, f"-I{ROOT / 'c' / 'mkpla'}", "-c",
+                        str(path), "-o", str(obj)], check=True)
+        dis = subprocess.run(["objdump", "-d", str(obj)], capture_output=True, text=True, check=True).stdout
+        return sum("vfmadd" in ln or "vfmsub" in ln or "vfnmadd" in ln or "vfnmsub" in ln for ln in dis.splitlines())
+
+    for c in ("mkpla.c", "mkp.c"):
+        src = ROOT / "c" / "mkpla" / c
+        assert fmas(src) == 0, c
+        control = tmp_path / ("control_" + c)
+        control.write_text(src.read_text().replace('#pragma GCC optimize("fp-contract=off")', ""))
+        assert fmas(control) > 0, c   # the check can see a fused multiply-add
