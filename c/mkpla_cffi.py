@@ -29,7 +29,7 @@ int mkpla_encoder_push(mkpla_encoder *e, mkpla_time t, const mkpla_real *x, mkpl
 int mkpla_encoder_flush(mkpla_encoder *e, mkpla_point *p);
 long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_time *t, const mkpla_real *x, size_t n,
                              int flush_at_end, uint32_t *index, mkpla_time *ts, mkpla_real *values,
-                             size_t *failed);
+                             size_t *failed, size_t *made);
 typedef struct { ...; } mkp_packetiser;
 mkpla_real mkp_delta(int bits);
 int mkp_quantise(const mkpla_real *q, int bits, uint16_t *code);

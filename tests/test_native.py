@@ -545,3 +545,47 @@ def test_no_fused_multiply_add_even_when_the_flags_ask_for_it(tmp_path, flags):
         control = tmp_path / ("control_" + c)
         control.write_text(src.read_text().replace('#pragma GCC optimize("fp-contract=off")', ""))
         assert fmas(control) > 0, c   # the check can see a fused multiply-add
+
+
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_nan_sample_does_not_void_the_anglesw_bound(precision):
+    """A NaN sample in a swinging stream (L = 1000), just where a segment ends: refused, and the
+    1-degree bound holds after it. (Taken in, it would end that segment and anchor the next: every
+    angle to a NaN anchor is NaN, which passed every test, so all later samples joined its segment.)"""
+    n = 600
+    t = np.arange(n) * 0.01
+    a = np.radians(30.0) * np.sin(2 * np.pi * np.arange(n) / 200)   # to and fro by 30 degrees
+    X = np.column_stack([np.cos(a / 2), np.sin(a / 2), np.zeros(n), np.zeros(n)])
+    clean = encode(t, X, "anglesw", math.radians(1.0), 1000, True, precision)
+    at = int(clean.indices[3]) + 1                    # the NaN between a point and the sample ending it
+    enc = NativeEncoder("anglesw", math.radians(1.0), 4, True, 1000, precision)
+    pts, refused = [], ""
+    for i in range(n):
+        if i == at:
+            try:
+                pts += [r for r in [enc.push(t[i] - 0.005, (1.0, math.nan, 0.0, 0.0))] if r]
+            except InvalidSignalError as exc:
+                refused = str(exc)
+        pts += [r for r in [enc.push(t[i], X[i])] if r]
+    pts += [r for r in [enc.flush()] if r]
+    idx = np.array([p[0] for p in pts])
+    if not refused:   # it took a sample number: map back to the good samples' (the NaN point dropped)
+        idx = np.array([k if k < at else k - 1 for k in idx if k != at])
+    assert math.degrees(_slerp_angle_max(t, X, idx, X[idx])) <= 1.0
+    assert refused.startswith(f"sample {at}: NaN or infinite")
+    assert np.array_equal(idx, clean.indices)
+
+
+@pytest.mark.parametrize("engine", ["c", "numba"])
+@pytest.mark.parametrize("q", [(1e-170, 0.0, 0.0, 0.0), (1e200, 1e200, 0.0, 0.0)])
+def test_encoder_refuses_quaternions_it_cannot_normalise(engine, q):
+    """Both engines, push and push_many: the C refusal is named before C sees the sample, so a batch
+    is refused whole."""
+    t, X = _irregular(n=50)
+    X[7] = q
+    with pytest.raises(InvalidSignalError, match="sample 7: quaternion norm too small or too large"):
+        Encoder("anglesw", 1.0, engine=engine).push_many(t, X)
+    enc = Encoder("anglesw", 1.0, engine=engine)
+    with pytest.raises(InvalidSignalError, match="sample 7: quaternion norm too small or too large"):
+        for i in range(len(t)):
+            enc.push(t[i], X[i])

@@ -828,7 +828,7 @@ int mkpla_encoder_flush(mkpla_encoder *e, mkpla_point *p)
 
 long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_time *t, const mkpla_real *x, size_t n,
                              int flush_at_end, uint32_t *index, mkpla_time *ts, mkpla_real *values,
-                             size_t *failed)
+                             size_t *failed, size_t *made)
 {
     size_t i;
     long m = 0;
@@ -839,6 +839,8 @@ long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_time *t, const mkpla_
         if (rc < 0) {
             if (failed)
                 *failed = i;
+            if (made)
+                *made = (size_t)m;
             return rc;
         }
         if (rc) {
@@ -856,5 +858,7 @@ long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_time *t, const mkpla_
             values[(size_t)m * (size_t)e->dim + d] = p.v[d];
         m++;
     }
+    if (made)
+        *made = (size_t)m;
     return m;
 }

@@ -210,11 +210,14 @@ int mkpla_encoder_init(mkpla_encoder *e, int method, int dim, int quaternion, mk
 int mkpla_encoder_push(mkpla_encoder *e, mkpla_time t, const mkpla_real *x, mkpla_point *p);
 int mkpla_encoder_flush(mkpla_encoder *e, mkpla_point *p);
 /* n samples (t[i], x[i*dim .. i*dim+dim-1]); the points go to index[], ts[] and values[] (room for n
- * + 1 points, values dim per point). Returns the number of points, or an MKPLA_E_* error with
- * *failed set to the offending sample. flush_at_end: also flush after the last sample. */
+ * + 1 points, values dim per point). Returns the number of points, or an MKPLA_E_* error for a
+ * refused sample: the batch stops there, *failed is its position, and the points of the samples
+ * before it are in the arrays all the same, *made of them (the encoder as after those samples: the
+ * next batch may start after the refused one). flush_at_end: also flush after the last sample.
+ * failed and made may be NULL. */
 long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_time *t, const mkpla_real *x, size_t n,
                              int flush_at_end, uint32_t *index, mkpla_time *ts, mkpla_real *values,
-                             size_t *failed);
+                             size_t *failed, size_t *made);
 
 #ifdef __cplusplus
 }

@@ -169,7 +169,7 @@ static void test_refusals(int method, mkpla_real th, uint32_t maxlen)
     mkpla_real nan = zero / zero, inf = 1 / zero;
     mkpla_real bad[6][4];
     int code[6] = {MKPLA_E_NONFINITE, MKPLA_E_NONFINITE, MKPLA_E_NONFINITE, MKPLA_E_ZERO, MKPLA_E_ZERO, MKPLA_E_ZERO};
-    size_t failed = 0;
+    size_t failed = 0, made = 0;
     long m;
     for (k = 0; k < 6; k++)
         for (i = 0; i < 4; i++)
@@ -228,19 +228,18 @@ static void test_refusals(int method, mkpla_real th, uint32_t maxlen)
         }
         mkpla_encoder_init(&a, method, 4, 1, th, maxlen, buf_a, sizeof buf_a / sizeof buf_a[0]);
         mkpla_encoder_init(&b, method, 4, 1, th, maxlen, buf_b, sizeof buf_b / sizeof buf_b[0]);
-        total = mkpla_encoder_push_many(&b, tt, xx, (size_t)at, 0, idx_b, ts_b, val_b, &failed);
-        m = mkpla_encoder_push_many(&b, tt + at, xx + 4 * at, (size_t)N + 1 - (size_t)at, 1, idx_b + total,
-                                    ts_b + total, val_b + 4 * total, &failed);
-        CHECK(m == MKPLA_E_NONFINITE && failed == 0, "push_many stops at the NaN sample, naming it");
+        m = mkpla_encoder_push_many(&b, tt, xx, (size_t)N + 1, 0, idx_b, ts_b, val_b, &failed, &made);
+        CHECK(m == MKPLA_E_NONFINITE && failed == (size_t)at && made > 0, "push_many stops at the NaN sample, naming it");
+        total = (long)made; /* the points of the samples before it are kept */
         m = mkpla_encoder_push_many(&b, tt + at + 1, xx + 4 * (at + 1), (size_t)N - (size_t)at, 1, idx_b + total,
-                                    ts_b + total, val_b + 4 * total, &failed);
-        CHECK(m > 0, "push_many goes on after the refused sample");
+                                    ts_b + total, val_b + 4 * total, &failed, &made);
+        CHECK(m > 0 && (size_t)m == made, "push_many goes on after the refused sample");
         total += m > 0 ? m : 0;
         for (i = 0; i < N; i++) { /* the clean stream */
             tt[i] = tick_of(i, 0);
             memcpy(xx + 4 * i, sig[i], sizeof sig[i]);
         }
-        m = mkpla_encoder_push_many(&a, tt, xx, (size_t)N, 1, idx_a, ts_a, val_a, &failed);
+        m = mkpla_encoder_push_many(&a, tt, xx, (size_t)N, 1, idx_a, ts_a, val_a, &failed, NULL);
         CHECK(m == total && memcmp(idx_a, idx_b, (size_t)m * sizeof idx_a[0]) == 0
               && memcmp(ts_a, ts_b, (size_t)m * sizeof ts_a[0]) == 0
               && memcmp(val_a, val_b, (size_t)m * 4 * sizeof val_a[0]) == 0,

@@ -127,8 +127,6 @@ class NativeEncoder:
         """float64: the time itself; float32: its tick (a sensor's clock)."""
         if self.precision == "float64":
             return t
-        if not math.isfinite(t):
-            return 0  # C cannot see a NaN tick: refused here as C refuses a NaN time
         if self._t0 is None:
             self._t0 = t
         return int(sensor_ticks(np.array([t]), self._t0, self._tick)[0])
@@ -139,14 +137,14 @@ class NativeEncoder:
         for d in range(self.dim):
             xb[d] = x[d]
         if self.precision == "float32" and not math.isfinite(t):
-            rc = -7
+            rc = -7   # a tick cannot be NaN: refused here as C refuses a NaN time
         else:
             rc = self._lib.mkpla_encoder_push(self._enc, self._time(t), xb, self._pt)
+        if rc < 0:   # refused: the encoder is as it was, the next sample takes this one's place
+            raise InvalidSignalError(f"sample {self._count}: {C_ERRORS.get(rc, rc)}")
         self._count += 1
         if rc == 0:
             return None
-        if rc < 0:
-            raise InvalidSignalError(f"sample {self._count - 1}: {C_ERRORS.get(rc, rc)}")
         p = self._pt
         return int(p.index), float(p.t), tuple(p.v[d] for d in range(self.dim))
 
@@ -160,7 +158,9 @@ class NativeEncoder:
         """Many samples in one call (``t (n,)``, ``X (n, dim)``); the points they decided.
 
         For the float32 build the returned times are the ticks the encoder saw (:func:`sensor_ticks`);
-        take times from the indices where they matter.
+        take times from the indices where they matter. A sample C refuses stops the batch with an
+        :class:`~mocapkit.errors.InvalidSignalError` whose ``points`` are those of the samples before
+        it (which the encoder took); the encoder goes on after the refused sample.
         """
         n = int(t.shape[0])
         if n == 0 and not flush:
@@ -179,17 +179,23 @@ class NativeEncoder:
         idx = np.empty(n + 1, dtype=np.uint32)
         ts = np.empty(n + 1, dtype=tdtype)
         vals = np.empty((n + 1, self.dim), dtype=self._dtype)
-        failed = self._ffi.new("size_t *")
         ffi = self._ffi
+        failed, made = ffi.new("size_t *"), ffi.new("size_t *")
         tptr = ffi.cast("mkpla_time *", ffi.from_buffer(tt))
-        m = self._lib.mkpla_encoder_push_many(
+        rc = self._lib.mkpla_encoder_push_many(
             self._enc, tptr, self._ptr(xx), n, 1 if flush else 0,
             ffi.cast("uint32_t *", ffi.from_buffer(idx)), ffi.cast("mkpla_time *", ffi.from_buffer(ts)),
-            self._ptr(vals), failed)
-        if m < 0:
-            raise InvalidSignalError(f"sample {self._count + int(failed[0])}: {C_ERRORS.get(m, m)}")
+            self._ptr(vals), failed, made)
+        m = int(made[0])
+        pts = Points(idx[:m].astype(np.int64), ts[:m].astype(np.float64), vals[:m].astype(np.float64))
+        if rc < 0:
+            k = int(failed[0])
+            err = InvalidSignalError(f"sample {self._count + k}: {C_ERRORS.get(rc, rc)}")
+            err.points = pts
+            self._count += k
+            raise err
         self._count += n
-        return Points(idx[:m].astype(np.int64), ts[:m].astype(np.float64), vals[:m].astype(np.float64))
+        return pts
 
 
 def encode(t: np.ndarray, X: np.ndarray, method: str, threshold: float, maxlen: int, quaternion: bool,
