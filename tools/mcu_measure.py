@@ -641,6 +641,15 @@ def shaking_signal(n: int, seed: int = 13) -> Signal:
     return as_sensor("synthetic/shaking", np.arange(n) * 0.01, q)
 
 
+def last_axis_signal(n: int, seed: int = 17) -> Signal:
+    """Only the last component shaken (100 Hz; the samples not normalised, as the SSR and Swing encoders
+    take them): the Swing Filter's test passes three dimensions and fails at the fourth, its longest path."""
+    rng = np.random.default_rng(seed)
+    q = np.tile([0.9, 0.2, -0.2, 0.0], (n, 1))
+    q[:, 3] = rng.uniform(-0.5, 0.5, n)
+    return as_sensor("synthetic/last-axis", np.arange(n) * 0.01, q)
+
+
 # --------------------------------------------------------------------------------------------------
 # the radio packetiser (c/mkpla/mkp.c) on the M4: the second harness, c/mcu/mkp_main.c
 # --------------------------------------------------------------------------------------------------
@@ -956,7 +965,7 @@ def measure(elf: Path, workdir: Path, data: Path | None = DATA, *, line_budget: 
     still = still_signal(max(sw_fit_length, anglesw_fit_length) + 1)
     turning = turning_signal(anglesw_fit_length + 1, TURN_DEG)
     shaking = shaking_signal(400)
-    synth = [still, turning, shaking]
+    synth = [still, turning, shaking, last_axis_signal(400)]
     rows = []
     for method in METHODS:
         entry: dict = {"method": method}
@@ -997,7 +1006,8 @@ def measure(elf: Path, workdir: Path, data: Path | None = DATA, *, line_budget: 
                   Job(2, method, th_small, DEFAULT_MAXLEN[method], "shaking")]
         if method not in ("sw", "anglesw"):   # a bounded segment length adds its test to every path
             sjobs += [Job(2, method, 0.0, 50, "shaking, threshold 0, maxlen 50"),
-                      Job(2, method, th_small, 50, "shaking, maxlen 50"), Job(1, method, 1e-3, 50, "turning, maxlen 50")]
+                      Job(2, method, th_small, 50, "shaking, maxlen 50"), Job(1, method, 1e-3, 50, "turning, maxlen 50"),
+                      Job(3, method, th_small, 0, "last axis shaken"), Job(3, method, th_small, 50, "last axis shaken, maxlen 50")]
         sizes, s_seglen, s_counts = _count_jobs(elf, image, method, synth, sjobs,
                                                 workdir / f"trace-{method}-synth", log)
         all_counts = np.concatenate([data_counts, s_counts])
