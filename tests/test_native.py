@@ -590,3 +590,18 @@ def test_encoder_refuses_quaternions_it_cannot_normalise(engine, q):
     with pytest.raises(InvalidSignalError, match="sample 7: quaternion norm too small or too large"):
         for i in range(len(t)):
             enc.push(t[i], X[i])
+
+
+@pytest.mark.parametrize("method,th", [("fastsw", 1e-5), ("sw", 1e-5), ("cplr", 1e-5), ("swing", 2e-3),
+                                       ("anglesw", math.radians(0.5))])
+def test_float32_decisions_do_not_depend_on_uptime(method, th):
+    """The float32 build fed ticks counted from the first sample, or from 36 h before it (a microsecond
+    counter wrapped 30 times): the same points. (As float seconds, 36 h in, times had 7.8 ms steps.)"""
+    t, X = _walk(800, 5)
+    maxlen = 1000 if method in ("sw", "anglesw") else 0
+    ref = encode(t, X, method, th, maxlen, True, "float32")
+    late = encode(t, X, method, th, maxlen, True, "float32", epoch=float(t[0]) - 36 * 3600)
+    assert len(ref.indices) > 5
+    assert np.array_equal(ref.indices, late.indices) and np.array_equal(ref.values, late.values)
+    shift = round(36 * 3600 / 1e-6) % 2**32
+    assert np.array_equal((ref.times.astype(np.int64) + shift) % 2**32, late.times.astype(np.int64))

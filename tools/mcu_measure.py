@@ -1132,6 +1132,7 @@ def main(argv=None) -> int:
 
     try:
         elf = build(args.build / args.opt.lstrip("-"), args.opt)
+        log(run_selftest(elf).strip())
         with tempfile.TemporaryDirectory(prefix="mkpla-mcu-") as tmp:
             res = measure(elf, Path(tmp), data, sw_fit_length=args.sw_fit_length,
                           anglesw_fit_length=args.anglesw_fit_length, log=log)
