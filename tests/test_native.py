@@ -8,6 +8,10 @@
   on the decoded output of every sample.
 - The streaming :class:`~mocapkit.pla.Encoder` (now on C): ``push``, ``push_many`` and ``compress``
   agree; bad samples in a batch are named.
+- The checked C API does not trust its input: NaN/Inf, zero/subnormal/overflowing-norm quaternions and
+  out-of-order times are refused without changing the encoder (the bound holds on the rest, brute
+  force); the C tests (c/tests/mkpla_selftest.c) pass in 64- and 32-bit host builds with GCC's default
+  flags; no fused multiply-add even under -ffp-contract=fast; float32 decisions independent of uptime.
 """
 
 from __future__ import annotations
