@@ -2,8 +2,9 @@
 
 Run by setuptools at ``pip install`` (``setup.py``: ``cffi_modules``); the modules land in the package
 as ``mocapkit._mkpla64`` and ``mocapkit._mkpla32``. Both compile the same ``mkpla.c``; the float32
-one with ``MKPLA_FLOAT32``. ``-ffp-contract=off``: no fused multiply-add, so the float64 build rounds
-as the Python kernels do.
+one with ``MKPLA_FLOAT32``. No fused multiply-add, so the float64 build rounds as the Python kernels
+do: the sources turn contraction off themselves; ``-ffp-contract=off`` says it once more. Times are
+``double`` in the float64 build and ``uint32_t`` ticks in the float32 one (``mkpla_time``).
 """
 
 from __future__ import annotations
@@ -19,15 +20,16 @@ MAX_DIM = 16
 
 CDEF = """
 typedef REAL mkpla_real;
-typedef struct { uint32_t index; mkpla_real t; mkpla_real v[%d]; } mkpla_point;
+typedef TIME mkpla_time;
+typedef struct { uint32_t index; mkpla_time t; mkpla_real v[%d]; } mkpla_point;
 typedef struct { ...; } mkpla_encoder;
 int mkpla_encoder_init(mkpla_encoder *e, int method, int dim, int quaternion, mkpla_real threshold,
                        uint32_t maxlen, mkpla_real *buffer, size_t buffer_len);
-int mkpla_encoder_push(mkpla_encoder *e, mkpla_real t, const mkpla_real *x, mkpla_point *p);
+int mkpla_encoder_push(mkpla_encoder *e, mkpla_time t, const mkpla_real *x, mkpla_point *p);
 int mkpla_encoder_flush(mkpla_encoder *e, mkpla_point *p);
-long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_real *t, const mkpla_real *x, size_t n,
-                             int flush_at_end, uint32_t *index, mkpla_real *ts, mkpla_real *values,
-                             size_t *failed);
+long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_time *t, const mkpla_real *x, size_t n,
+                             int flush_at_end, uint32_t *index, mkpla_time *ts, mkpla_real *values,
+                             size_t *failed, size_t *made);
 typedef struct { ...; } mkp_packetiser;
 mkpla_real mkp_delta(int bits);
 int mkp_quantise(const mkpla_real *q, int bits, uint16_t *code);
@@ -41,9 +43,9 @@ long mkp_push_many(mkp_packetiser *s, const mkpla_real *q, size_t n, int flush_a
 """ % MAX_DIM
 
 
-def _builder(name: str, real: str, defines: list[tuple[str, str | None]]) -> FFI:
+def _builder(name: str, real: str, time: str, defines: list[tuple[str, str | None]]) -> FFI:
     ffi = FFI()
-    ffi.cdef(CDEF.replace("REAL", real))
+    ffi.cdef(CDEF.replace("REAL", real).replace("TIME", time))
     ffi.set_source(
         f"mocapkit.{name}",
         '#include "mkpla.h"\n#include "mkp.h"',
@@ -56,5 +58,5 @@ def _builder(name: str, real: str, defines: list[tuple[str, str | None]]) -> FFI
     return ffi
 
 
-ffi64 = _builder("_mkpla64", "double", [])
-ffi32 = _builder("_mkpla32", "float", [("MKPLA_FLOAT32", "1")])
+ffi64 = _builder("_mkpla64", "double", "double", [])
+ffi32 = _builder("_mkpla32", "float", "uint32_t", [("MKPLA_FLOAT32", "1")])

@@ -100,6 +100,61 @@ def test_a_changed_point_is_noticed(elf, excerpts, tmp_path):
     assert len(M.differences(excerpts, jobs, results)) == 1
 
 
+# ---- GCC's default flags, the C tests on the target ---------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def default_flags_elf(tmp_path_factory) -> Path:
+    """The harnesses built with GCC's defaults (gnu17, -ffp-contract=fast, math errno) plus -Werror."""
+    return M.build(tmp_path_factory.mktemp("mcu-default"), "-O3", werror=True, strict="")
+
+
+def test_default_flags_build_has_no_fused_multiply_add(default_flags_elf):
+    """The FPv4 has vfma; GCC contracts a*b + c into it by default: the sources forbid it themselves."""
+    for obj in ("mkpla.o", "mkp.o"):
+        dis = subprocess.run(["arm-none-eabi-objdump", "-d", str(default_flags_elf.parent / obj)],
+                             capture_output=True, text=True, check=True).stdout
+        assert "vmul.f32" in dis
+        assert not any(k in dis for k in ("vfma", "vfms", "vfnma", "vfnms")), obj
+
+
+def test_default_flags_build_gives_the_host_float32_points(default_flags_elf, excerpts, tmp_path):
+    jobs = M.default_jobs(len(excerpts))
+    _, results, _ = M.run(default_flags_elf, excerpts, jobs, tmp_path / "enc")
+    assert sum(len(r.index) for r in results) > len(jobs)
+    assert M.differences(excerpts, jobs, results) == []
+    mjobs = M.mkp_jobs(len(excerpts))
+    _, mres, _ = M.run_mkp(M.mkp_elf(default_flags_elf), excerpts, mjobs, tmp_path / "mkp")
+    assert M.mkp_differences(excerpts, mjobs, mres) == []
+
+
+@pytest.mark.parametrize("which", ["strict", "default flags"])
+def test_c_selftest_on_the_m4(elf, default_flags_elf, which):
+    """c/tests/mkpla_selftest.c on the Cortex-M4 (32-bit size_t): sizes that would wrap, refused samples
+    changing nothing, mkp refusing NaN/Inf, ticks deciding alike after 36 h and across the wrap."""
+    report = M.run_selftest(elf if which == "strict" else default_flags_elf)
+    assert " 0 failed (size_t of 32 bits)" in report
+    assert int(report.split("mkpla selftest: ")[1].split()[0]) > 500
+
+
+def test_points_do_not_depend_on_the_first_tick(elf, excerpts, tmp_path):
+    """The same recording starting at tick 0, after 36 h of a microsecond clock (wrapped 30 times) and
+    just before the counter wraps: the same point indices and values on the M4."""
+    sig = max(excerpts, key=lambda s: float(np.ptp(s.q_source, axis=0).sum()) * len(s.t))   # long, moving
+    jobs = [M.Job(0, m, th, M.DEFAULT_MAXLEN[m]) for m, th in
+            (("fastsw", 1e-6), ("sw", 1e-6), ("cplr", 1e-6), ("swing", 1e-3), ("anglesw", math.radians(0.2)))]
+    base = None
+    for t0 in (0, int(36 * 3600 * 1e6), 2**32 - 50_000):
+        shifted = M.Signal(sig.name, ((sig.t.astype(np.int64) + t0) % 2**32).astype(np.uint32), sig.q,
+                           sig.t_source, sig.q_source)
+        _, results, _ = M.run(elf, [shifted], jobs, tmp_path / str(t0))
+        got = [(r.index.tolist(), r.v.tobytes(), ((r.t.astype(np.int64) - t0) % 2**32).tolist()) for r in results]
+        if base is None:
+            base = got
+            assert all(len(g[0]) > 2 for g in got)
+        assert got == base, t0
+
+
 # ---- instruction counts -------------------------------------------------------------------------
 
 

@@ -264,6 +264,25 @@ def test_packetiser_refuses_impossible_options(excerpt):
         packetise(np.vstack([v[:3], np.zeros((1, 4)), v[3:10]]), 2.0, bits=10)
 
 
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+@pytest.mark.parametrize("bad,code,msg", [((1.0, math.inf, 0.0, 0.0), -7, "NaN or infinite"),
+                                          ((-math.inf, 0.0, 0.0, 0.0), -7, "NaN or infinite"),
+                                          ((0.5, 0.5, math.nan, 0.5), -7, "NaN or infinite"),
+                                          ((0.0, 0.0, 0.0, 0.0), -4, "zero-norm"),
+                                          ((1e30, 1e30, 0.0, 0.0), -4, "zero-norm")])
+def test_c_packetiser_refuses_non_finite_and_zero_quaternions(excerpt, precision, bad, code, msg):
+    """mkp_quantise gives the code; the packetiser names the sample and sends nothing made of it."""
+    if precision == "float64" and bad[0] == 1e30:
+        bad = (1e160, 1e160, 0.0, 0.0)   # a squared norm beyond double's range
+    ffi, lib = _lib(precision)
+    x = ffi.new("mkpla_real[4]", list(bad))
+    c = ffi.new("uint16_t[4]")
+    assert lib.mkp_quantise(x, 12, c) == code
+    v = next(iter(excerpt.values())).values
+    with pytest.raises(Exception, match=f"sample 3: {msg}"):
+        packetise(np.vstack([v[:3], np.array([bad]), v[3:10]]), 2.0, bits=10, precision=precision)
+
+
 # ---- the bound on every shared sample -------------------------------------------------------------
 
 def _shared_quaternion_signals(shared_data):

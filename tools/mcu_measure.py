@@ -6,8 +6,10 @@ into a harness that QEMU's ``mps2-an386`` board runs; the harness reads quaterni
 from a host file (semihosting), pushes every sample through ``mkpla_encoder_push`` and writes the
 points and, per push, the segment length n before it.
 
-1. **Points**: every job's points (index, time, values, bit for bit) must equal those of the host
-   float32 build, :func:`mocapkit.pla.native.encode` with ``precision="float32"`` on the same samples.
+1. **Points**: every job's points (index, tick, values, bit for bit) must equal those of the host
+   float32 build, :func:`mocapkit.pla.native.encode` with ``precision="float32"`` on the same samples
+   (times as microsecond ticks, :func:`mocapkit.pla.native.sensor_ticks`). ``build(strict="")``
+   compiles with GCC's default flags instead (gnu17, contraction allowed): the same bits are expected.
 2. **Instructions per sample**: QEMU logs every translated block (``-d in_asm``) and every executed
    block (``-d exec,nochain``; no chaining, so no block runs unlogged), restricted with ``-dfilter``
    to the library's code and the C library routines it calls. A call is counted from the block at the
@@ -24,6 +26,9 @@ points and, per push, the segment length n before it.
    :func:`mocapkit.pla.packets.packetise` with ``precision="float32"`` byte for byte (the CLI's default
    bits, 20-byte packets). ``mkp_push`` is counted as above, callees (quantiser, anglesw, bit packing,
    CRC) included; ``mkpla_anglesw_push`` is counted in the same run, for what the packetiser adds.
+
+5. **The C tests** (``c/tests/mkpla_selftest.c``) run on the target too (``selftest.elf``: 32-bit
+   ``size_t``), :func:`run_selftest`.
 
     python tools/mcu_measure.py [--opt -O2] [--json docs/mcu.json] [--data ../shared/data]
 """
@@ -67,11 +72,15 @@ TURN_DEG = 0.5
 #: the fastSW paper's Table 2 (4-D, Cortex-M4, GCC 11.1 -O3): min and max instructions per sample
 PAPER = {"fastsw": (191, 210), "sw": (53, "161 + 35 n"), "cplr": (198, 209), "swing": (252, 420)}
 ARCH = "-mcpu=cortex-m4 -mthumb -mfpu=fpv4-sp-d16 -mfloat-abi=hard"
-CFLAGS = f"-std=c99 -Wall -Wextra -pedantic -ffp-contract=off -fno-math-errno {ARCH} -DMKPLA_FLOAT32"
+#: c/mcu/Makefile's STRICT (what a sensor build would give; build(strict="") leaves it out: GCC's defaults)
+STRICT = "-std=c99 -pedantic -ffp-contract=off -fno-math-errno"
+CFLAGS = f"{STRICT} -Wall -Wextra {ARCH} -DMKPLA_FLOAT32"
 
 MAGIC_IN = 0x424A4B4D
 MAGIC_OUT = 0x54504B4D
-VERSION = 1
+#: the encoders' harness's file version (2: times as uint32 ticks); the packet harness's is MKP_VERSION
+VERSION = 2
+MKP_VERSION = 1
 #: limits of the harness (c/mcu/main.c)
 MAX_SIGNALS = 64
 MAX_SAMPLES = 32768
@@ -107,14 +116,18 @@ def _run(cmd: list[str], **kw) -> subprocess.CompletedProcess:
     return res
 
 
-def build(build_dir: Path, opt: str = "-O3", werror: bool = True, mkpla_dir: Path | None = None) -> Path:
-    """Cross-compile the harness into ``build_dir`` (``make -C c/mcu``); the ELF's path.
+def build(build_dir: Path, opt: str = "-O3", werror: bool = True, mkpla_dir: Path | None = None,
+          strict: str | None = None) -> Path:
+    """Cross-compile the harnesses into ``build_dir`` (``make -C c/mcu``); the encoders' ELF's path.
 
     ``werror``: any compiler warning fails the build. ``mkpla_dir``: a folder with another
-    ``mkpla.c``/``mkpla.h`` (experiments), default ``c/mkpla``. Returns ``build_dir/harness.elf``.
+    ``mkpla.c``/``mkpla.h`` (experiments), default ``c/mkpla``. ``strict``: the Makefile's STRICT flags
+    (default :data:`STRICT`; ``""``: GCC's defaults). Returns ``build_dir/harness.elf``.
     """
     build_dir = Path(build_dir).resolve()
     cmd = ["make", "-s", "-B", "-C", str(MCU_DIR), f"BUILD={build_dir}", f"OPT={opt}"]
+    if strict is not None:
+        cmd.append(f"STRICT={strict}")
     if mkpla_dir is not None:
         cmd.append(f"MKPLA_DIR={Path(mkpla_dir).resolve()}")
     if werror:
@@ -217,20 +230,22 @@ class Image:
 
 @dataclass(frozen=True)
 class Signal:
-    """A quaternion signal as the sensor build sees it: float32 seconds since the first sample, float32 values."""
+    """A quaternion signal as the sensor build sees it: microsecond ticks since the first sample, float32 values."""
 
     name: str
-    t: np.ndarray   # float32 (n,)
+    t: np.ndarray   # uint32 (n,) ticks
     q: np.ndarray   # float32 (n, 4)
     t_source: np.ndarray  # the float64 times (for the host reference)
     q_source: np.ndarray  # the float64 values
 
 
 def as_sensor(name: str, t: np.ndarray, X: np.ndarray) -> Signal:
-    """The float32 inputs exactly as :class:`mocapkit.pla.native.NativeEncoder` makes them."""
+    """The float32 build's inputs exactly as :class:`mocapkit.pla.native.NativeEncoder` makes them."""
+    from mocapkit.pla.native import sensor_ticks
+
     t = np.asarray(t, dtype=np.float64)
     X = np.asarray(X, dtype=np.float64)
-    return Signal(name, np.ascontiguousarray(t - t[0], dtype=np.float32),
+    return Signal(name, sensor_ticks(t, float(t[0])),
                   np.ascontiguousarray(X, dtype=np.float32).reshape(-1, 4), t, X)
 
 
@@ -250,7 +265,7 @@ class Result:
     """What the harness wrote for a job."""
 
     index: np.ndarray   # uint32 point indices
-    t: np.ndarray       # float32 point times
+    t: np.ndarray       # uint32 point ticks
     v: np.ndarray       # float32 (m, 4) point values
     seglen: np.ndarray  # uint32: segment length before each push
 
@@ -277,7 +292,7 @@ def write_input(path: Path, signals: list[Signal], jobs: list[Job]) -> None:
     for s in signals:
         if len(s.t) > MAX_SAMPLES:
             raise McuError(f"{s.name}: {len(s.t)} samples, the harness takes {MAX_SAMPLES}")
-        parts += [struct.pack("<I", len(s.t)), s.t.astype("<f4").tobytes(), s.q.astype("<f4").tobytes()]
+        parts += [struct.pack("<I", len(s.t)), s.t.astype("<u4").tobytes(), s.q.astype("<f4").tobytes()]
     for j in jobs:
         if j.maxlen > MAX_SEGMENT:
             raise McuError(f"maximum segment length {j.maxlen} above the harness's {MAX_SEGMENT}")
@@ -305,7 +320,7 @@ def read_output(path: Path, jobs: list[Job], signals: list[Signal]) -> tuple[dic
             raise McuError(f"{path}: job {j} reports {n} samples")
         seglen = w[pos + 1: pos + 1 + n].copy()
         pos += 1 + n
-        out.append(Result(rec[:, 0].copy(), rec[:, 1].copy().view("<f4"), rec[:, 2:].copy().view("<f4"), seglen))
+        out.append(Result(rec[:, 0].copy(), rec[:, 1].copy(), rec[:, 2:].copy().view("<f4"), seglen))
     if pos != len(w):
         raise McuError(f"{path}: {len(w) - pos} words after the last job")
     return sizes, out
@@ -426,6 +441,23 @@ def _qemu_cmd(elf: Path, inp: Path, out: Path) -> list[str]:
     return ["qemu-system-arm", "-M", "mps2-an386", "-cpu", "cortex-m4", "-nographic", "-monitor", "none",
             "-serial", "none", "-semihosting-config",
             f"enable=on,target=native,arg=harness,arg={inp},arg={out}", "-kernel", str(elf)]
+
+
+def selftest_elf(elf: Path) -> Path:
+    """The C tests' image built beside the encoders' harness ``elf`` (``make -C c/mcu`` builds it)."""
+    return Path(elf).parent / "selftest.elf"
+
+
+def run_selftest(elf: Path, timeout: float = 300.0) -> str:
+    """Run ``c/tests/mkpla_selftest.c`` on the emulated Cortex-M4; its report (raises on a failure)."""
+    cmd = ["qemu-system-arm", "-M", "mps2-an386", "-cpu", "cortex-m4", "-nographic", "-monitor", "none",
+           "-serial", "none", "-semihosting-config", "enable=on,target=native,arg=selftest",
+           "-kernel", str(selftest_elf(elf))]
+    res = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=timeout)
+    report = res.stdout + res.stderr
+    if res.returncode != 0 or " 0 failed" not in report:
+        raise McuError(f"the C tests failed on the M4 ({res.returncode}): {report.strip()[-3000:]}")
+    return report
 
 
 def run(elf: Path, signals: list[Signal], jobs: list[Job], workdir: Path, *, count: str | None = None,
@@ -550,8 +582,8 @@ def differences(signals: list[Signal], jobs: list[Job], results: list[Result]) -
         what = None
         if len(h.indices) != len(r.index) or not np.array_equal(h.indices, r.index.astype(np.int64)):
             what = f"indices differ ({len(r.index)} points on the M4, {len(h.indices)} on the host)"
-        elif not np.array_equal(h.times.astype(np.float32).view(np.uint32), r.t.view(np.uint32)):
-            what = "point times differ"
+        elif not np.array_equal(h.times.astype(np.uint32), r.t.astype(np.uint32)):
+            what = "point ticks differ"
         elif not np.array_equal(h.values.astype(np.float32).view(np.uint32), r.v.view(np.uint32)):
             what = "point values differ"
         if what:
@@ -607,6 +639,15 @@ def shaking_signal(n: int, seed: int = 13) -> Signal:
     q = rng.normal(size=(n, 4))
     q /= np.linalg.norm(q, axis=1)[:, None]
     return as_sensor("synthetic/shaking", np.arange(n) * 0.01, q)
+
+
+def last_axis_signal(n: int, seed: int = 17) -> Signal:
+    """Only the last component shaken (100 Hz; the samples not normalised, as the SSR and Swing encoders
+    take them): the Swing Filter's test passes three dimensions and fails at the fourth, its longest path."""
+    rng = np.random.default_rng(seed)
+    q = np.tile([0.9, 0.2, -0.2, 0.0], (n, 1))
+    q[:, 3] = rng.uniform(-0.5, 0.5, n)
+    return as_sensor("synthetic/last-axis", np.arange(n) * 0.01, q)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -668,7 +709,7 @@ def write_mkp_input(path: Path, signals: list[Signal], jobs: list[MkpJob]) -> No
     """The packet harness's input file (format in ``c/mcu/mkp_main.c``)."""
     if len(signals) > MAX_SIGNALS:
         raise McuError(f"at most {MAX_SIGNALS} signals per run, got {len(signals)}")
-    parts = [struct.pack("<4I", MKP_MAGIC_IN, VERSION, len(signals), len(jobs))]
+    parts = [struct.pack("<4I", MKP_MAGIC_IN, MKP_VERSION, len(signals), len(jobs))]
     for s in signals:
         if len(s.t) > MAX_SAMPLES:
             raise McuError(f"{s.name}: {len(s.t)} samples, the harness takes {MAX_SAMPLES}")
@@ -689,7 +730,7 @@ def read_mkp_output(path: Path, jobs: list[MkpJob], signals: list[Signal]) -> tu
     """Parse the packet harness's output: ``sizeof`` of the states and one :class:`MkpResult` per job."""
     raw = Path(path).read_bytes()
     w = np.frombuffer(raw, dtype="<u4")
-    if len(w) < 5 or w[0] != MKP_MAGIC_OUT or w[1] != VERSION or w[2] != len(jobs):
+    if len(w) < 5 or w[0] != MKP_MAGIC_OUT or w[1] != MKP_VERSION or w[2] != len(jobs):
         raise McuError(f"{path}: not a packet harness output for {len(jobs)} jobs")
     sizes = {"mkp_packetiser": int(w[3]), "anglesw": int(w[4])}
     pos = 5
@@ -924,7 +965,7 @@ def measure(elf: Path, workdir: Path, data: Path | None = DATA, *, line_budget: 
     still = still_signal(max(sw_fit_length, anglesw_fit_length) + 1)
     turning = turning_signal(anglesw_fit_length + 1, TURN_DEG)
     shaking = shaking_signal(400)
-    synth = [still, turning, shaking]
+    synth = [still, turning, shaking, last_axis_signal(400)]
     rows = []
     for method in METHODS:
         entry: dict = {"method": method}
@@ -963,6 +1004,10 @@ def measure(elf: Path, workdir: Path, data: Path | None = DATA, *, line_budget: 
                      Job(1, method, 1e-3, 0, "turning")]
         sjobs += [Job(2, method, 0.0, DEFAULT_MAXLEN[method], "shaking, threshold 0"),
                   Job(2, method, th_small, DEFAULT_MAXLEN[method], "shaking")]
+        if method not in ("sw", "anglesw"):   # a bounded segment length adds its test to every path
+            sjobs += [Job(2, method, 0.0, 50, "shaking, threshold 0, maxlen 50"),
+                      Job(2, method, th_small, 50, "shaking, maxlen 50"), Job(1, method, 1e-3, 50, "turning, maxlen 50"),
+                      Job(3, method, th_small, 0, "last axis shaken"), Job(3, method, th_small, 50, "last axis shaken, maxlen 50")]
         sizes, s_seglen, s_counts = _count_jobs(elf, image, method, synth, sjobs,
                                                 workdir / f"trace-{method}-synth", log)
         all_counts = np.concatenate([data_counts, s_counts])
@@ -1087,6 +1132,7 @@ def main(argv=None) -> int:
 
     try:
         elf = build(args.build / args.opt.lstrip("-"), args.opt)
+        log(run_selftest(elf).strip())
         with tempfile.TemporaryDirectory(prefix="mkpla-mcu-") as tmp:
             res = measure(elf, Path(tmp), data, sw_fit_length=args.sw_fit_length,
                           anglesw_fit_length=args.anglesw_fit_length, log=log)

@@ -7,12 +7,12 @@
  * segment length n before its push (for the instruction counts per call against n).
  *
  * INPUT, little-endian 32-bit words:
- *   "MKJB", version 1, n_signals, n_jobs
- *   n_signals x { n, float t[n], float q[4 n] }             times in seconds since the first sample
+ *   "MKJB", version 2, n_signals, n_jobs
+ *   n_signals x { n, uint32 t[n], float q[4 n] }            times as ticks (mkpla_time)
  *   n_jobs    x { signal, method, maxlen, float threshold }  method: MKPLA_FASTSW .. MKPLA_ANGLESW
  * OUTPUT:
- *   "MKPT", version 1, n_jobs, sizeof of mkpla_fastsw, _sw, _cplr, _swing, _anglesw, _encoder
- *   n_jobs x { n_points, n_points x { index, float t, float v[4] }, n, n x segment length }
+ *   "MKPT", version 2, n_jobs, sizeof of mkpla_fastsw, _sw, _cplr, _swing, _anglesw, _encoder
+ *   n_jobs x { n_points, n_points x { index, tick, float v[4] }, n, n x segment length }
  */
 #include <stdint.h>
 #include <string.h>
@@ -22,7 +22,7 @@
 
 #define MAGIC_IN 0x424a4b4du  /* "MKJB" */
 #define MAGIC_OUT 0x54504b4du /* "MKPT" */
-#define VERSION 1u
+#define VERSION 2u
 #define INPUT_WORDS (256u * 1024u)  /* 1 MB of input */
 #define MAX_SAMPLES 32768u          /* longest signal */
 #define OUT_WORDS (16u * 1024u)     /* 64 KB written at a time */
@@ -76,7 +76,7 @@ static float real(uint32_t w)
 
 static int put_point(const mkpla_point *p)
 {
-    int d, rc = put(p->index) | put(bits(p->t));
+    int d, rc = put(p->index) | put(p->t);
     for (d = 0; d < 4; d++)
         rc |= put(bits(p->v[d]));
     return rc;
@@ -98,8 +98,8 @@ static uint32_t segment_length(const mkpla_encoder *e)
 static int run_job(const uint32_t *sig, uint32_t method, uint32_t maxlen, float threshold)
 {
     uint32_t i, n = sig[0], n_points = 0;
-    const float *t = (const float *)(const void *)(sig + 1);
-    const float *q = t + n;
+    const mkpla_time *t = sig + 1;
+    const float *q = (const float *)(const void *)(t + n);
     int rc;
     if (n > MAX_SAMPLES)
         return fail("a signal longer than the harness takes");

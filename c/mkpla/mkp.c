@@ -1,18 +1,33 @@
 /*
  * mkp — radio packets of segment points (see mkp.h and docs/mkp.md).
  */
+/* no fused multiply-add (see mkpla.c): the codes must not depend on the compiler's flags */
+#if defined(__clang__) || !defined(__GNUC__)
+#pragma STDC FP_CONTRACT OFF
+#else
+#pragma GCC optimize("fp-contract=off")
+#endif
+#if defined(__FAST_MATH__) || (defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__)
+#error "mkp: do not compile with -ffast-math or -ffinite-math-only (they drop the NaN checks)"
+#endif
+
 #include "mkp.h"
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
 #ifdef MKPLA_FLOAT32
 #define MKP_SQRT(x) sqrtf(x)
-#define MKP_TICK_LIMIT 0x1000000u /* float32 holds integers exactly up to 2^24 */
+#define MKP_REAL_MIN FLT_MIN
+#define MKP_REAL_MAX FLT_MAX
 #else
 #define MKP_SQRT(x) sqrt(x)
-#define MKP_TICK_LIMIT 0xffffffffu
+#define MKP_REAL_MIN DBL_MIN
+#define MKP_REAL_MAX DBL_MAX
 #endif
+/* ticks are counted in 32 bits (anglesw takes them as mkpla_time: exact in both builds) */
+#define MKP_TICK_LIMIT 0xffffffffu
 
 /* ---- quantisation -------------------------------------------------------------------------------
  * The kept components of a unit quaternion whose largest-magnitude component m is made positive lie
@@ -41,12 +56,16 @@ mkpla_real mkp_delta(int bits)
 
 int mkp_quantise(const mkpla_real *q, int bits, uint16_t *code)
 {
-    mkpla_real nrm = MKP_SQRT(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    mkpla_real big = 0, sg, k, mm;
+    mkpla_real n2 = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+    mkpla_real nrm, big = 0, sg, k, mm;
     int d, i = 0, j = 1;
     uint32_t M = (1u << bits) - 1u;
-    if (!(nrm > 0))
+    for (d = 0; d < 4; d++)
+        if (!(q[d] - q[d] == 0)) /* NaN or infinite */
+            return MKPLA_E_NONFINITE;
+    if (!(n2 >= MKP_REAL_MIN && n2 <= MKP_REAL_MAX)) /* zero, subnormal or overflowing squared norm */
         return MKPLA_E_ZERO;
+    nrm = MKP_SQRT(n2);
     for (d = 0; d < 4; d++) {
         mkpla_real a = q[d] < 0 ? -q[d] : q[d];
         if (a > big) {
@@ -266,12 +285,13 @@ int mkp_push(mkp_packetiser *s, const mkpla_real *q, uint8_t *out)
         return MKPLA_E_DONE;
     if (tick >= s->max_count)
         return MKP_E_TICKS;
-    if (mkp_quantise(q, s->bits, code) != MKPLA_OK)
-        return MKPLA_E_ZERO;
+    rc = mkp_quantise(q, s->bits, code);
+    if (rc != MKPLA_OK)
+        return rc; /* refused: nothing changed, the tick not counted */
     mkp_dequantise(code, s->bits, qd);
     if (s->full) /* a packet that was full after the previous point leaves now: one packet per call */
         len = close_packet(s, out, 0);
-    rc = mkpla_anglesw_push(&s->enc, (mkpla_real)tick, qd, &p);
+    rc = mkpla_anglesw_push(&s->enc, (mkpla_time)tick, qd, &p);
     s->count++;
     if (rc == 1) {
         /* the first sample, or the previous one */

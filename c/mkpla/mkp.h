@@ -46,7 +46,7 @@ extern "C" {
  * float32 sensor's dequantisation against the float64 decoder (about 1e-7 rad). */
 #define MKP_EPS ((mkpla_real)1e-6)
 
-#define MKP_E_TICKS (-6)    /* the tick counter is full (2^32 ticks; 2^24 in the float32 build) */
+#define MKP_E_TICKS (-6)    /* the tick counter is full (2^32 - 1 ticks) */
 
 typedef struct {
     mkpla_anglesw enc;
@@ -75,7 +75,8 @@ typedef struct {
 mkpla_real mkp_delta(int bits);
 /* Smallest-three codes of q (any non-zero norm): code[0] = index of the dropped (largest-magnitude)
  * component, code[1..3] = the other components in order, made to the hemisphere where the dropped
- * one is positive, as integers 0..2^bits-1. MKPLA_E_ZERO for a zero quaternion. */
+ * one is positive, as integers 0..2^bits-1. MKPLA_E_NONFINITE for a NaN or infinite component,
+ * MKPLA_E_ZERO for a zero quaternion (or one whose squared norm is subnormal or overflows). */
 int mkp_quantise(const mkpla_real *q, int bits, uint16_t *code);
 /* The unit quaternion the decoder reconstructs from the codes. */
 void mkp_dequantise(const uint16_t *code, int bits, mkpla_real *q);
@@ -87,7 +88,8 @@ uint16_t mkp_crc16(const uint8_t *data, size_t n);
 int mkp_init(mkp_packetiser *s, uint8_t sensor, mkpla_real max_angle_rad, int bits, int packet_bytes,
              uint32_t maxlen, mkpla_real *buffer, size_t buffer_len);
 /* One sample (the next tick). Returns the length of a packet written to out (room for packet_bytes),
- * 0 when none is ready, or an MKPLA_E_* / MKP_E_* error (zero quaternion, push after flush, ticks). */
+ * 0 when none is ready, or an MKPLA_E_* / MKP_E_* error (NaN or infinite component, zero quaternion,
+ * push after flush, ticks); a refused sample changes nothing and takes no tick. */
 int mkp_push(mkp_packetiser *s, const mkpla_real *q, uint8_t *out);
 /* End of stream: call until it returns 0; each positive return is a packet in out. */
 int mkp_flush(mkp_packetiser *s, uint8_t *out);

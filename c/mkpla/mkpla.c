@@ -2,12 +2,36 @@
  * mkpla — streaming PLA encoders (see mkpla.h). Every kernel mirrors its Python twin in
  * src/mocapkit/pla/ operation for operation, so the float64 build decides identically.
  */
+/* No contraction of a*b + c into a fused multiply-add: it rounds once instead of twice, so the
+ * decisions would depend on the compiler's flags and the target's FPU. Standard C says it with the
+ * STDC pragma, which GCC ignores (with a warning): GCC gets its own. */
+#if defined(__clang__) || !defined(__GNUC__)
+#pragma STDC FP_CONTRACT OFF
+#else
+#pragma GCC optimize("fp-contract=off")
+#endif
+#if defined(__FAST_MATH__) || (defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__)
+#error "mkpla: do not compile with -ffast-math or -ffinite-math-only (they drop the NaN checks and reorder sums)"
+#endif
+
 #include "mkpla.h"
+
+#include <float.h>
 
 #ifdef MKPLA_FLOAT32
 #define R(x) x##f
+#define MK_REAL_MIN FLT_MIN
+#define MK_REAL_MAX FLT_MAX
+/* ticks from a to b as a real: an exact integer difference, whatever the counter's value */
+#define DT(b, a) ((mkpla_real)(uint32_t)((b) - (a)))
+/* the segment anchored at s->ta may take a sample at t (its span stays countable) */
+#define SPAN_OK(s, t) ((uint32_t)((t) - (s)->ta) <= MKPLA_MAX_SPAN)
 #else
 #define R(x) x
+#define MK_REAL_MIN DBL_MIN
+#define MK_REAL_MAX DBL_MAX
+#define DT(b, a) ((b) - (a))
+#define SPAN_OK(s, t) 1
 #endif
 
 /* ---- maths ----------------------------------------------------------------------------------
@@ -69,7 +93,9 @@ static float mk_atan2(float y, float x) /* y >= 0, x >= 0, not both 0 */
 
 static int bad_real(mkpla_real v) { return !(v >= 0); } /* NaN or negative */
 
-static void emit(mkpla_point *p, uint32_t index, mkpla_real t, const mkpla_real *v, int dim)
+static int finite_real(mkpla_real v) { return v - v == 0; } /* neither NaN nor infinite */
+
+static void emit(mkpla_point *p, uint32_t index, mkpla_time t, const mkpla_real *v, int dim)
 {
     int d;
     p->index = index;
@@ -95,13 +121,13 @@ int mkpla_fastsw_init(mkpla_fastsw *s, int dim, mkpla_real threshold, uint32_t m
 }
 
 /* Algorithm 1, PROCESS_SAMPLE, for a dimension D the compiler may know (inlined twice below) */
-static inline int fastsw_step(mkpla_fastsw *s, mkpla_real t, const mkpla_real *restrict x, mkpla_point *p,
+static inline int fastsw_step(mkpla_fastsw *s, mkpla_time t, const mkpla_real *restrict x, mkpla_point *p,
                               const int D)
 {
     int d;
     uint32_t n = s->n + 1;                       /* line 2 */
     mkpla_real nr = (mkpla_real)n;
-    mkpla_real tn = t - s->ta;                   /* line 4 */
+    mkpla_real tn = DT(t, s->ta);                /* line 4 */
     mkpla_real t2 = s->t2m;
     mkpla_real ssr = 0;                          /* line 3 */
     for (d = 0; d < D; d++) {                    /* lines 5-8: Eq. 13 with the means of n - 1 samples */
@@ -109,7 +135,7 @@ static inline int fastsw_step(mkpla_fastsw *s, mkpla_real t, const mkpla_real *r
         mkpla_real beta = y / tn;                /* Eq. 4 */
         ssr += (s->y2m[d] - 2 * beta * s->tym[d] + beta * beta * t2) * (nr - 1);
     }
-    if (ssr <= s->th && (s->maxlen == 0 || n <= s->maxlen)) { /* line 9 */
+    if (ssr <= s->th && (s->maxlen == 0 || n <= s->maxlen) && SPAN_OK(s, t)) { /* line 9 */
         mkpla_real rn = 1 / nr;
         s->t2m = t2 + (tn * tn - t2) * rn;       /* line 10, Eq. 12 */
         for (d = 0; d < D; d++) {
@@ -126,7 +152,7 @@ static inline int fastsw_step(mkpla_fastsw *s, mkpla_real t, const mkpla_real *r
     /* lines 16-25: s_{n-1} becomes the new segment point, s_n starts the new segment */
     emit(p, s->count - 1, s->tp, s->pv, D);
     s->ta = s->tp;
-    tn = t - s->ta;                              /* line 19 */
+    tn = DT(t, s->ta);                           /* line 19 */
     s->t2m = tn * tn;                            /* line 20 */
     for (d = 0; d < D; d++) {
         mkpla_real y;
@@ -142,7 +168,7 @@ static inline int fastsw_step(mkpla_fastsw *s, mkpla_real t, const mkpla_real *r
     return 1;
 }
 
-int mkpla_fastsw_push(mkpla_fastsw *s, mkpla_real t, const mkpla_real *x, mkpla_point *p)
+int mkpla_fastsw_push(mkpla_fastsw *s, mkpla_time t, const mkpla_real *x, mkpla_point *p)
 {
     int d;
     if (s->count == 0) { /* the very first sample is the initial segment point */
@@ -184,7 +210,8 @@ int mkpla_sw_init(mkpla_sw *s, int dim, mkpla_real threshold, uint32_t maxlen, m
 {
     if (!check_dim(dim) || bad_real(threshold) || maxlen == 0)
         return MKPLA_E_PARAM;
-    if (buffer == NULL || buffer_len < MKPLA_SW_BUFFER_LEN(maxlen, dim))
+    /* buffer_len >= maxlen (dim + 1), without a product that could wrap around (32-bit size_t) */
+    if (buffer == NULL || buffer_len / (size_t)(dim + 1) < (size_t)maxlen)
         return MKPLA_E_BUFFER;
     s->dim = dim;
     s->th = threshold;
@@ -196,24 +223,24 @@ int mkpla_sw_init(mkpla_sw *s, int dim, mkpla_real threshold, uint32_t maxlen, m
     return MKPLA_OK;
 }
 
-static inline int sw_step(mkpla_sw *s, mkpla_real t, const mkpla_real *x, mkpla_point *p, const int D)
+static inline int sw_step(mkpla_sw *s, mkpla_time t, const mkpla_real *x, mkpla_point *p, const int D)
 {
     int d;
     uint32_t j, n = s->n + 1;
-    mkpla_real tn = t - s->ta;
-    if (n <= s->maxlen) {
+    mkpla_real tn = DT(t, s->ta);
+    if (n <= s->maxlen && SPAN_OK(s, t)) {
         mkpla_real ssr = 0;
         for (d = 0; d < D; d++) {
             mkpla_real beta = (x[d] - s->av[d]) / tn;   /* slope, Eq. 4 */
             for (j = 0; j + 1 < n; j++) {                /* Eq. 5 over s_1..s_{n-1} */
-                mkpla_real r = s->bx[j * D + d] - beta * s->bt[j]; /* buffered relative to the anchor */
+                mkpla_real r = s->bx[(size_t)j * D + d] - beta * s->bt[j]; /* relative to the anchor */
                 ssr += r * r;
             }
         }
         if (ssr <= s->th) {
-            s->bt[n - 1] = t - s->ta;
+            s->bt[n - 1] = tn;
             for (d = 0; d < D; d++) {
-                s->bx[(n - 1) * D + d] = x[d] - s->av[d];
+                s->bx[(size_t)(n - 1) * D + d] = x[d] - s->av[d];
                 s->pv[d] = x[d];
             }
             s->tp = t;
@@ -229,14 +256,14 @@ static inline int sw_step(mkpla_sw *s, mkpla_real t, const mkpla_real *x, mkpla_
         s->pv[d] = x[d];
         s->bx[d] = x[d] - s->av[d];
     }
-    s->bt[0] = t - s->ta;
+    s->bt[0] = DT(t, s->ta);
     s->tp = t;
     s->n = 1;
     s->count++;
     return 1;
 }
 
-int mkpla_sw_push(mkpla_sw *s, mkpla_real t, const mkpla_real *x, mkpla_point *p)
+int mkpla_sw_push(mkpla_sw *s, mkpla_time t, const mkpla_real *x, mkpla_point *p)
 {
     int d;
     if (s->count == 0) {
@@ -285,16 +312,16 @@ int mkpla_cplr_init(mkpla_cplr *s, int dim, mkpla_real threshold, uint32_t maxle
 /* move the anchor to the segment's regression line at t_prev */
 static inline void cplr_end(mkpla_cplr *s, const int D)
 {
-    mkpla_real tp = s->tp - s->ta;
+    mkpla_real tp = DT(s->tp, s->ta);
     for (int d = 0; d < D; d++)
         s->av[d] = s->av[d] + s->tym[d] / s->t2m * tp;
     s->ta = s->tp;
 }
 
 /* s_n as the only sample of a new segment anchored at (ta, av) */
-static inline void cplr_restart(mkpla_cplr *s, mkpla_real t, const mkpla_real *x, const int D)
+static inline void cplr_restart(mkpla_cplr *s, mkpla_time t, const mkpla_real *x, const int D)
 {
-    mkpla_real tn = t - s->ta;
+    mkpla_real tn = DT(t, s->ta);
     s->t2m = tn * tn;
     for (int d = 0; d < D; d++) {
         mkpla_real y = x[d] - s->av[d];
@@ -305,16 +332,16 @@ static inline void cplr_restart(mkpla_cplr *s, mkpla_real t, const mkpla_real *x
     s->n = 1;
 }
 
-static inline int cplr_step(mkpla_cplr *s, mkpla_real t, const mkpla_real *restrict x, mkpla_point *p,
+static inline int cplr_step(mkpla_cplr *s, mkpla_time t, const mkpla_real *restrict x, mkpla_point *p,
                             const int D)
 {
     int d;
     uint32_t n = s->n + 1;
     mkpla_real nr = (mkpla_real)n;
-    mkpla_real tn = t - s->ta;
+    mkpla_real tn = DT(t, s->ta);
     mkpla_real rn = 1 / nr;
     mkpla_real t2 = s->t2m + (tn * tn - s->t2m) * rn;
-    int ok = s->maxlen == 0 || n <= s->maxlen;
+    int ok = (s->maxlen == 0 || n <= s->maxlen) && SPAN_OK(s, t);
     if (ok && n > 1) {
         mkpla_real ssr = 0;
         for (d = 0; d < D; d++) {
@@ -344,7 +371,7 @@ static inline int cplr_step(mkpla_cplr *s, mkpla_real t, const mkpla_real *restr
     return 1;
 }
 
-int mkpla_cplr_push(mkpla_cplr *s, mkpla_real t, const mkpla_real *x, mkpla_point *p)
+int mkpla_cplr_push(mkpla_cplr *s, mkpla_time t, const mkpla_real *x, mkpla_point *p)
 {
     int d;
     if (s->count == 0) {
@@ -391,9 +418,9 @@ int mkpla_swing_init(mkpla_swing *s, int dim, mkpla_real eps, uint32_t maxlen)
 }
 
 /* s_n as the first sample of a segment anchored at (ta, av): the initial slope bounds */
-static inline void swing_restart(mkpla_swing *s, mkpla_real t, const mkpla_real *x, const int D)
+static inline void swing_restart(mkpla_swing *s, mkpla_time t, const mkpla_real *x, const int D)
 {
-    mkpla_real tn = t - s->ta;
+    mkpla_real tn = DT(t, s->ta);
     s->t2m = tn * tn;
     for (int d = 0; d < D; d++) {
         mkpla_real y = x[d] - s->av[d];
@@ -408,7 +435,7 @@ static inline void swing_restart(mkpla_swing *s, mkpla_real t, const mkpla_real 
 /* move the anchor to t_prev along the least-squares slope clamped into [lo, up] */
 static inline void swing_end(mkpla_swing *s, const int D)
 {
-    mkpla_real tp = s->tp - s->ta;
+    mkpla_real tp = DT(s->tp, s->ta);
     for (int d = 0; d < D; d++) {
         mkpla_real sl = s->tym[d] / s->t2m;
         if (sl > s->up[d])
@@ -420,7 +447,7 @@ static inline void swing_end(mkpla_swing *s, const int D)
     s->ta = s->tp;
 }
 
-static inline int swing_step(mkpla_swing *s, mkpla_real t, const mkpla_real *x, mkpla_point *p, const int D)
+static inline int swing_step(mkpla_swing *s, mkpla_time t, const mkpla_real *x, mkpla_point *p, const int D)
 {
     int d, ok;
     uint32_t n = s->n + 1;
@@ -430,8 +457,8 @@ static inline int swing_step(mkpla_swing *s, mkpla_real t, const mkpla_real *x, 
         s->count++;
         return 0;
     }
-    tn = t - s->ta;
-    ok = s->maxlen == 0 || n <= s->maxlen;
+    tn = DT(t, s->ta);
+    ok = (s->maxlen == 0 || n <= s->maxlen) && SPAN_OK(s, t);
     if (ok) {
         for (d = 0; d < D; d++) {
             mkpla_real y = x[d] - s->av[d];
@@ -466,7 +493,7 @@ static inline int swing_step(mkpla_swing *s, mkpla_real t, const mkpla_real *x, 
     return 1;
 }
 
-int mkpla_swing_push(mkpla_swing *s, mkpla_real t, const mkpla_real *x, mkpla_point *p)
+int mkpla_swing_push(mkpla_swing *s, mkpla_time t, const mkpla_real *x, mkpla_point *p)
 {
     int d;
     if (s->count == 0) {
@@ -502,7 +529,7 @@ int mkpla_anglesw_init(mkpla_anglesw *s, mkpla_real max_angle_rad, uint32_t maxl
 {
     if (bad_real(max_angle_rad) || maxlen == 0 || maxlen > 0x7fffffffu)
         return MKPLA_E_PARAM;
-    if (buffer == NULL || buffer_len < MKPLA_ANGLESW_BUFFER_LEN(maxlen))
+    if (buffer == NULL || buffer_len / 5u < (size_t)maxlen) /* buffer_len >= 5 maxlen, without wrapping */
         return MKPLA_E_BUFFER;
     s->th = max_angle_rad > MKPLA_ANGLE_SLACK ? max_angle_rad - MKPLA_ANGLE_SLACK : 0;
     s->maxlen = maxlen;
@@ -598,15 +625,18 @@ static mkpla_real angle_between(const mkpla_real *a, const mkpla_real *b)
 }
 
 /* angle between buffered sample j and the SLERP decode at its time, for a segment ending at (t, qn) */
-static mkpla_real deviation(const mkpla_anglesw *s, uint32_t j, mkpla_real t, const mkpla_real *qn, const arc *r)
+static mkpla_real deviation(const mkpla_anglesw *s, uint32_t j, mkpla_real tn, const mkpla_real *qn, const arc *r)
 {
     mkpla_real tmp[4];
-    mkpla_real f = (s->bt[j] - s->ta) / (t - s->ta);
+    mkpla_real f = s->bt[j] / tn;
     slerp_unit(s->qa, qn, r, f, tmp);
-    return angle_between(s->bq + 4 * j, tmp);
+    return angle_between(s->bq + 4 * (size_t)j, tmp);
 }
 
-int mkpla_anglesw_push(mkpla_anglesw *s, mkpla_real t, const mkpla_real *q, mkpla_point *p)
+/* a deviation beyond the bound; NaN counts as beyond, so nothing unforeseen can extend a segment */
+#define BEYOND(dev, th) (!((dev) <= (th)))
+
+int mkpla_anglesw_push(mkpla_anglesw *s, mkpla_time t, const mkpla_real *q, mkpla_point *p)
 {
     int d, ok;
     uint32_t j, n;
@@ -624,16 +654,17 @@ int mkpla_anglesw_push(mkpla_anglesw *s, mkpla_real t, const mkpla_real *q, mkpl
     }
     n = s->n + 1;
     normalised(q, qn);
-    ok = n <= s->maxlen;
+    ok = n <= s->maxlen && SPAN_OK(s, t);
     if (ok && n > 1) {
         int32_t first = s->failed;
+        mkpla_real tn = DT(t, s->ta);
         arc r;
         arc_of(s->qa, qn, &r);
-        if (first >= 0 && (uint32_t)first < n - 1 && deviation(s, (uint32_t)first, t, qn, &r) > s->th) {
+        if (first >= 0 && (uint32_t)first < n - 1 && BEYOND(deviation(s, (uint32_t)first, tn, qn, &r), s->th)) {
             ok = 0;
         } else {
             for (j = 0; j + 1 < n; j++) {
-                if (deviation(s, j, t, qn, &r) > s->th) {
+                if (BEYOND(deviation(s, j, tn, qn, &r), s->th)) {
                     ok = 0;
                     s->failed = (int32_t)j;
                     break;
@@ -642,9 +673,9 @@ int mkpla_anglesw_push(mkpla_anglesw *s, mkpla_real t, const mkpla_real *q, mkpl
         }
     }
     if (ok) {
-        s->bt[n - 1] = t;
+        s->bt[n - 1] = DT(t, s->ta);
         for (d = 0; d < 4; d++) {
-            s->bq[4 * (n - 1) + d] = qn[d];
+            s->bq[4 * (size_t)(n - 1) + d] = qn[d];
             s->qp[d] = qn[d];
         }
         s->tp = t;
@@ -659,7 +690,7 @@ int mkpla_anglesw_push(mkpla_anglesw *s, mkpla_real t, const mkpla_real *q, mkpl
         s->qp[d] = qn[d];
         s->bq[d] = qn[d];
     }
-    s->bt[0] = t;
+    s->bt[0] = DT(t, s->ta);
     s->tp = t;
     s->n = 1;
     s->failed = -1;
@@ -707,18 +738,45 @@ int mkpla_encoder_init(mkpla_encoder *e, int method, int dim, int quaternion, mk
     return rc;
 }
 
-int mkpla_encoder_push(mkpla_encoder *e, mkpla_real t, const mkpla_real *x, mkpla_point *p)
+/* Why the sample (t, x) cannot be encoded next (an MKPLA_E_* code), or MKPLA_OK. Reads only. */
+static int refused(const mkpla_encoder *e, mkpla_time t, const mkpla_real *x)
+{
+    int d, ok = 1;
+#ifdef MKPLA_FLOAT32
+    uint32_t step = (uint32_t)(t - e->last_t);
+#else
+    ok = finite_real(t);
+#endif
+    for (d = 0; d < e->dim; d++)
+        ok &= finite_real(x[d]);
+    if (!ok)
+        return MKPLA_E_NONFINITE;
+#ifdef MKPLA_FLOAT32
+    if (e->count > 0 && (step == 0 || step > MKPLA_MAX_SPAN))
+        return MKPLA_E_TIME;
+#else
+    if (e->count > 0 && !(t > e->last_t))
+        return MKPLA_E_TIME;
+#endif
+    if (e->quaternion) { /* normalisable: a normal, finite squared norm */
+        mkpla_real n2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3];
+        if (!(n2 >= MK_REAL_MIN && n2 <= MK_REAL_MAX))
+            return MKPLA_E_ZERO;
+    }
+    return MKPLA_OK;
+}
+
+int mkpla_encoder_push(mkpla_encoder *e, mkpla_time t, const mkpla_real *x, mkpla_point *p)
 {
     mkpla_real y[MKPLA_MAX_DIM];
     const mkpla_real *v = x;
     int d, rc;
     if (e->done)
         return MKPLA_E_DONE;
-    if (e->count > 0 && !(t > e->last_t))
-        return MKPLA_E_TIME;
+    rc = refused(e, t, x);
+    if (rc != MKPLA_OK)
+        return rc; /* nothing changed: the encoder takes the next sample as if this one never came */
     if (e->quaternion) {
-        if (x[0] == 0 && x[1] == 0 && x[2] == 0 && x[3] == 0)
-            return MKPLA_E_ZERO;
         if (e->count > 0) { /* as quat.hemisphere_continuous: against the sample as passed */
             mkpla_real dot = x[0] * e->last[0] + x[1] * e->last[1] + x[2] * e->last[2] + x[3] * e->last[3];
             e->sign = e->sign * dot < 0 ? -1 : 1;
@@ -768,9 +826,9 @@ int mkpla_encoder_flush(mkpla_encoder *e, mkpla_point *p)
     return rc;
 }
 
-long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_real *t, const mkpla_real *x, size_t n,
-                             int flush_at_end, uint32_t *index, mkpla_real *ts, mkpla_real *values,
-                             size_t *failed)
+long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_time *t, const mkpla_real *x, size_t n,
+                             int flush_at_end, uint32_t *index, mkpla_time *ts, mkpla_real *values,
+                             size_t *failed, size_t *made)
 {
     size_t i;
     long m = 0;
@@ -781,13 +839,15 @@ long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_real *t, const mkpla_
         if (rc < 0) {
             if (failed)
                 *failed = i;
+            if (made)
+                *made = (size_t)m;
             return rc;
         }
         if (rc) {
             index[m] = p.index;
             ts[m] = p.t;
             for (d = 0; d < e->dim; d++)
-                values[m * e->dim + d] = p.v[d];
+                values[(size_t)m * (size_t)e->dim + d] = p.v[d];
             m++;
         }
     }
@@ -795,8 +855,10 @@ long mkpla_encoder_push_many(mkpla_encoder *e, const mkpla_real *t, const mkpla_
         index[m] = p.index;
         ts[m] = p.t;
         for (d = 0; d < e->dim; d++)
-            values[m * e->dim + d] = p.v[d];
+            values[(size_t)m * (size_t)e->dim + d] = p.v[d];
         m++;
     }
+    if (made)
+        *made = (size_t)m;
     return m;
 }

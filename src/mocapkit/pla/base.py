@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -36,6 +37,13 @@ MAX_SEGMENT_LENGTH_LIMIT = 10**9
 #: offsets stay far from float64 overflow and underflow (a step of 1e-300 s made the CPLR and Swing
 #: kernels divide by an underflowed zero); readers refuse steps far larger (below 1e-9 s)
 MIN_TIME_STEP = 1e-100
+#: a quaternion whose squared norm is subnormal or overflows cannot be normalised (the C encoders refuse it)
+NORM_PROBLEM = "quaternion norm too small or too large to normalise (squared norm subnormal or overflowing)"
+
+
+def _normalisable(n2):
+    """Whether a squared norm is a normal, finite float (array or scalar)."""
+    return (n2 >= sys.float_info.min) & (n2 <= sys.float_info.max)
 
 
 def _check_steps(t: np.ndarray) -> None:
@@ -264,6 +272,8 @@ class Encoder:
             )
         if self.kind == "quaternion" and raw[0] == 0.0 and raw[1] == 0.0 and raw[2] == 0.0 and raw[3] == 0.0:
             raise InvalidSignalError(f"sample {self._n}: zero-norm quaternion")
+        if self.kind == "quaternion" and not _normalisable(sum(v * v for v in raw)):
+            raise InvalidSignalError(f"sample {self._n}: {NORM_PROBLEM}")
         if self._native is not None:
             if self._n == 0:
                 self._first_t = t
@@ -346,6 +356,9 @@ class Encoder:
         ]
         if self.kind == "quaternion":
             checks.append((~(X != 0.0).any(axis=1), lambda k: "zero-norm quaternion"))
+            with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+                n2 = np.sum(X * X, axis=1)
+            checks.append(((X != 0.0).any(axis=1) & ~_normalisable(n2), lambda k: NORM_PROBLEM))
         bad = [(int(np.argmax(m)), c) for c, (m, _) in enumerate(checks) if m.any()]
         if bad:
             k, c = min(bad)
