@@ -5,8 +5,6 @@ The batches run in-process through :func:`mocapkit.cli.main` (their workers are 
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import os
 import shutil
@@ -14,26 +12,13 @@ from pathlib import Path
 
 import pytest
 
-from mocapkit import cli
+from cli_run import run
 from mocapkit.jobs.inputs import expand_inputs, output_bases
 from mocapkit.batch.journal import Journal, read_journal
 from mocapkit.batch.results import read_results
 from mocapkit.errors import InvalidParameterError, MocapFormatError
 
 pytest.importorskip("pyarrow", reason="the batch results need pyarrow (mocapkit[batch])")
-
-
-def run(*args) -> tuple[int, str, str]:
-    """``mocapkit ARGS`` in-process: exit code, stdout, stderr."""
-    out, errs = io.StringIO(), io.StringIO()
-    code = None
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(errs):
-            cli.main([str(a) for a in args])
-    except SystemExit as e:
-        code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
-    assert code is not None
-    return code, out.getvalue(), errs.getvalue()
 
 
 def rows_by_input(out: Path) -> dict[str, dict]:

@@ -8,7 +8,6 @@ catalogs are DuckDB files and, where ``MOCAPKIT_TEST_PG`` is set, PostgreSQL sch
 from __future__ import annotations
 
 import contextlib
-import io
 import json
 import os
 import shutil
@@ -19,23 +18,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from mocapkit import cli
+from cli_run import run
 
 pytest.importorskip("pyarrow", reason="the batch results need pyarrow (mocapkit[batch])")
 pytest.importorskip("duckdb")
-
-
-def run(*args) -> tuple[int, str, str]:
-    """``mocapkit ARGS`` in-process: exit code, stdout, stderr."""
-    out, errs = io.StringIO(), io.StringIO()
-    code = None
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(errs):
-            cli.main([str(a) for a in args])
-    except SystemExit as e:
-        code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
-    assert code is not None
-    return code, out.getvalue(), errs.getvalue()
 
 
 def rows_by_name(out: Path) -> dict[str, dict]:
