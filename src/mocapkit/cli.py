@@ -90,7 +90,7 @@ def compress(
     max_position_error: MaxPositionErrorOpt = None,
     unit_cm: UnitCmOpt = None,
     gltf_rotations: GltfRotationsOpt = GltfRotations.short,
-    error_metric: ErrorMetricOpt = ErrorMetric.joint,
+    error_metric: ErrorMetricOpt = ErrorMetric.joint_end,
     shell_distance: ShellDistanceOpt = 3.0,
     block_frames: BlockFramesOpt = None,
     entropy: EntropyOpt = "zstd",

@@ -189,7 +189,7 @@ def batch_compress(
     unit_cm: UnitCmOpt = None,
     skeletal_format: Annotated[str, typer.Option("--skeletal-format", help="Skeletons as .glb (keyframes, "
                                "standard glTF) or .mkc (the compact clip; needs --max-position-error).")] = "glb",
-    error_metric: ErrorMetricOpt = ErrorMetric.joint,
+    error_metric: ErrorMetricOpt = ErrorMetric.joint_end,
     shell_distance: ShellDistanceOpt = 3.0,
     gltf_rotations: GltfRotationsOpt = GltfRotations.short,
     strict: StrictOpt = True,
