@@ -16,9 +16,10 @@ import numba
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError
+from mocapkit.io.mkc import BOUND_METRICS
 from mocapkit.skeleton import Motion, forward_kinematics
 
-METRICS = ("joint+end", "joint", "shell")
+METRICS = BOUND_METRICS  # ("joint+end", "joint", "shell"): what a clip's header may name
 DEFAULT_METRIC = "joint+end"
 DEFAULT_SHELL_CM = 3.0  # ACL's default virtual-vertex distance
 
