@@ -31,6 +31,24 @@ def naive_positions(motion) -> np.ndarray:
     return out
 
 
+def naive_end_sites(motion: Motion) -> np.ndarray:
+    """``(N, E, 3)`` world End Site positions: scipy rotations composed root to joint, no mocapkit kinematics."""
+    sk = motion.skeleton
+    P = naive_positions(motion)
+    out = np.zeros((motion.n_frames, len(sk.end_sites), 3))
+    for e, (j, off) in enumerate(sk.end_sites):
+        chain = []
+        k = j
+        while k >= 0:
+            chain.append(k)
+            k = int(sk.parents[k])
+        world = Rotation.identity(motion.n_frames)
+        for k in reversed(chain):
+            world = world * Rotation.from_quat(motion.rotations[:, k][:, [1, 2, 3, 0]])
+        out[:, e] = P[:, j] + world.apply(np.asarray(off, dtype=np.float64))
+    return out
+
+
 def gltf_validator() -> tuple[str, Path]:
     """``(node, node_modules)`` of the Khronos validator; skips where node/npm are missing."""
     node = shutil.which("node")

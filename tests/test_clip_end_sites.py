@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from reference_kinematics import naive_positions
+from reference_kinematics import naive_end_sites, naive_positions
 from scipy.spatial.transform import Rotation
 
 from mocapkit import cli
@@ -28,24 +28,6 @@ SHARED = [("cmu/86_01.amc", "cmu/86.asf", None), ("cmu/13_29.amc", "cmu/86.asf",
           ("bvh/walk-meredith.bvh", None, 2.54), ("bvh/mixamo-rig.bvh", None, None),
           ("bvh/cmu-131_01-3dsmax.bvh", None, None), ("bvh/perception-neuron-freya.bvh", None, None),
           ("bvh/mocapbank.bvh", None, None)]
-
-
-def naive_end_sites(motion: Motion) -> np.ndarray:
-    """``(N, E, 3)`` world End Site positions: scipy rotations composed root to joint, no mocapkit kinematics."""
-    sk = motion.skeleton
-    P = naive_positions(motion)
-    out = np.zeros((motion.n_frames, len(sk.end_sites), 3))
-    for e, (j, off) in enumerate(sk.end_sites):
-        chain = []
-        k = j
-        while k >= 0:
-            chain.append(k)
-            k = int(sk.parents[k])
-        world = Rotation.identity(motion.n_frames)
-        for k in reversed(chain):
-            world = world * Rotation.from_quat(motion.rotations[:, k][:, [1, 2, 3, 0]])
-        out[:, e] = P[:, j] + world.apply(np.asarray(off, dtype=np.float64))
-    return out
 
 
 def end_error(original: Motion, decoded: Motion) -> float:
