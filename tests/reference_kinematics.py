@@ -31,21 +31,24 @@ def naive_positions(motion) -> np.ndarray:
     return out
 
 
-def naive_end_sites(motion: Motion) -> np.ndarray:
-    """``(N, E, 3)`` world End Site positions: scipy rotations composed root to joint, no mocapkit kinematics."""
+def naive_end_sites(motion) -> np.ndarray:
+    """``(N, E, 3)`` world End Site positions: scipy rotations composed root to joint (batched over
+    frames), no mocapkit kinematics."""
     sk = motion.skeleton
-    P = naive_positions(motion)
-    out = np.zeros((motion.n_frames, len(sk.end_sites), 3))
+    N, J = motion.n_frames, sk.n_joints
+    P = np.zeros((N, J, 3))
+    world = [None] * J
+    for j in range(J):
+        local = Rotation.from_quat(motion.rotations[:, j][:, [1, 2, 3, 0]])
+        p = sk.parents[j]
+        if p < 0:
+            world[j], P[:, j] = local, motion.translations[:, j]
+        else:
+            world[j] = world[p] * local
+            P[:, j] = P[:, p] + world[p].apply(motion.translations[:, j])
+    out = np.zeros((N, len(sk.end_sites), 3))
     for e, (j, off) in enumerate(sk.end_sites):
-        chain = []
-        k = j
-        while k >= 0:
-            chain.append(k)
-            k = int(sk.parents[k])
-        world = Rotation.identity(motion.n_frames)
-        for k in reversed(chain):
-            world = world * Rotation.from_quat(motion.rotations[:, k][:, [1, 2, 3, 0]])
-        out[:, e] = P[:, j] + world.apply(np.asarray(off, dtype=np.float64))
+        out[:, e] = P[:, j] + world[j].apply(np.asarray(off, dtype=np.float64))
     return out
 
 

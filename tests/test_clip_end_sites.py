@@ -173,3 +173,21 @@ def test_end_sites_within_the_bound_on_every_shared_skeletal_file(shared_data, n
     dec = Clip(name, data=enc.data).decode()
     err = float(np.linalg.norm(naive_end_sites(dec) - ref, axis=-1).max())
     assert err <= 0.1 / u * (1 + 1e-9), (name, err * u)
+
+
+@pytest.mark.parametrize("name,asf,u", TESTS_FILES)
+def test_gltf_output_bounds_end_sites_by_default(tests_data, tmp_path, name, asf, u):
+    """``compress -o X.glb --max-position-error 0.1``: End Sites of the file read back within 0.1 cm (with
+    the joints only, the ASF skeleton's End Sites moved 0.196 cm)."""
+    from mocapkit.io.gltf import read_gltf
+    from mocapkit.jobs import compress_job
+
+    out = tmp_path / "x.glb"
+    rec = compress_job(tests_data / name, asf=None if asf is None else tests_data / asf, unit_cm=u,
+                       max_position_error=0.1, output=out)
+    m, _ = _load(tests_data, name, asf, u)
+    back = read_gltf(out)
+    unit = rec["unit_cm"]
+    err = end_error(m, back) * unit
+    assert err <= 0.1, (name, err)
+    assert max(err, joint_error(m, back) * unit) == pytest.approx(rec["readback_max_position_error_cm"], rel=1e-6, abs=1e-9)
