@@ -145,3 +145,23 @@ def test_the_command_line_gives_one_line_and_exit_2(embedded, tmp_path):
     lines = err.getvalue().strip().splitlines()
     assert len(lines) == 1 and "clip.gltf" in lines[0] and "buffer 0" in lines[0], lines
     assert not (tmp_path / "out.bvh").exists()
+
+
+def test_decompress_never_overwrites_the_buffer_file(embedded, tmp_path):
+    """The buffer a ``.gltf`` names is an input: ``decompress X.gltf -o`` that file is refused before any
+    work (also through a percent-encoded name and a link), and the file is unchanged."""
+    doc, blob, _ = embedded
+    buf = tmp_path / "buf a.bvh"
+    buf.write_bytes(blob)
+    (tmp_path / "alias.bvh").symlink_to(buf)
+    for uri, out in (("buf a.bvh", buf), ("buf%20a.bvh", buf), ("buf a.bvh", tmp_path / "alias.bvh")):
+        path = _gltf(tmp_path, doc, uri)
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()), pytest.raises(SystemExit) as e:
+            cli.main(["decompress", str(path), "-o", str(out)])
+        assert e.value.code == 2, err.getvalue()
+        assert "input" in err.getvalue() and len(err.getvalue().strip().splitlines()) == 1
+        assert buf.read_bytes() == blob
+    with contextlib.redirect_stderr(io.StringIO()), pytest.raises(SystemExit) as e:
+        cli.main(["decompress", str(path), "-o", str(tmp_path / "back.bvh")])
+    assert e.value.code == 0 and (tmp_path / "back.bvh").stat().st_size > 0

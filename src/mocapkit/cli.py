@@ -447,8 +447,10 @@ def decompress(
     import numpy as np
 
     # several sensors of a .mkp decode into a folder (one CSV each): an existing folder is a valid output
+    from mocapkit.io.gltf import gltf_buffer_files
+
     _check_output(output, folder=points.suffix.lower() == ".mkp" and output.is_dir(), source=points,
-                  inputs=(times_from,))
+                  inputs=(times_from, *gltf_buffer_files(points)))
     if points.suffix.lower() in (".glb", ".gltf"):
         _decompress_clip(points, output, times_from, rate)
         return

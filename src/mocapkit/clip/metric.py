@@ -1,11 +1,12 @@
 """Position error of a decoded skeletal motion: every point drawn, or as ACL measures it.
 
-``joint+end`` (the default): the world-space distance between the original and the decoded position of
-every joint and every End Site (the tips a BVH or ASF skeleton draws beyond its leaf joints: a leaf's
-own rotation moves them) in every frame. ``joint``: the joints only. ``shell``: ACL's error metric — for every bone and frame the largest distance between the
-original and the decoded positions of three *virtual points* at distance ``d`` along the bone's local
-x, y and z axes (``p_j + d·R_j·e_a``); it also sees a bone's own rotation (which moves no joint when the
-bone is a leaf). Both are computed from float64 forward kinematics of the two motions.
+``joint+end`` (the default of ``compress``): the world-space distance between the original and the
+decoded position of every joint and every End Site (the tips a BVH or ASF skeleton draws beyond its
+leaf joints: a leaf's own rotation moves them) in every frame. ``joint``: the joints only. ``shell``:
+ACL's error metric — for every bone and frame the largest distance between the original and the
+decoded positions of three *virtual points* at distance ``d`` along the bone's local x, y and z axes
+(``p_j + d·R_j·e_a``); it also sees a bone's own rotation (which moves no joint when the bone is a
+leaf). All are computed from float64 forward kinematics of the two motions.
 """
 
 from __future__ import annotations

@@ -333,12 +333,33 @@ def _data_uri(uri: str, size: int) -> bytes:
     return raw[:size]
 
 
-def _buffer_file(gltf: Path, uri: str, size: int) -> bytes:
-    """The first ``size`` bytes of the buffer file ``uri`` names: a relative path (percent-decoded) to a
-    regular file inside the ``.gltf``'s folder (symlinks resolved), at least ``size`` bytes long. Nothing
-    else is opened: no absolute path, no ``..`` or link out of the folder, no device, pipe or folder."""
-    import os
-    import stat
+def buffer_file_path(gltf: str | Path, uri: str) -> Path | None:
+    """The file a ``.gltf``'s buffer ``uri`` names, resolved as :func:`read_gltf` resolves it, or ``None``
+    for a data URI or a URI the reader refuses (so never reads): what an output must not overwrite."""
+    if not isinstance(uri, str) or uri.startswith("data:"):
+        return None
+    try:
+        return _buffer_target(Path(gltf), uri)
+    except _Bad:
+        return None
+
+
+def gltf_buffer_files(path: str | Path) -> list[Path]:
+    """The existing files a ``.gltf`` names as buffers (:func:`buffer_file_path`): inputs read with it,
+    which an output must not overwrite. ``[]`` for any other file, or one that does not parse (the
+    reader reports it)."""
+    p = Path(path)
+    try:
+        if p.suffix.lower() != ".gltf" or not p.is_file() or p.stat().st_size > MAX_FILE_BYTES:
+            return []
+        buffers = _json(p.read_bytes()).get("buffers")
+    except (OSError, _Bad):
+        return []
+    found = (buffer_file_path(p, b.get("uri")) for b in buffers if isinstance(b, dict)) if isinstance(buffers, list) else ()
+    return [f for f in found if f is not None and f.is_file()]
+
+
+def _buffer_target(gltf: Path, uri: str) -> Path:
     from urllib.parse import unquote
 
     name = unquote(uri)
@@ -349,6 +370,18 @@ def _buffer_file(gltf: Path, uri: str, size: int) -> bytes:
     target = (folder / name).resolve()
     if not target.is_relative_to(folder):
         raise _Bad(f"buffer 0: uri {shown!r} leads out of the glTF file's folder ({target})")
+    return target
+
+
+def _buffer_file(gltf: Path, uri: str, size: int) -> bytes:
+    """The first ``size`` bytes of the buffer file ``uri`` names: a relative path (percent-decoded) to a
+    regular file inside the ``.gltf``'s folder (symlinks resolved), at least ``size`` bytes long. Nothing
+    else is opened: no absolute path, no ``..`` or link out of the folder, no device, pipe or folder."""
+    import os
+    import stat
+
+    shown = uri[:80]
+    target = _buffer_target(gltf, uri)
     try:
         fd = os.open(target, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOFOLLOW", 0))
     except OSError as exc:

@@ -2,7 +2,8 @@
 local translation a 3-D vector stream, each compressed with the PLA methods.
 
 Error in the user's terms (``max_position_error``): every joint's *world-space* position in every
-frame stays within the bound. A rotation error ``δ`` at joint ``i`` moves every descendant ``k`` by at
+frame stays within the bound (and every End Site's with ``end_sites=True``, what ``compress`` asks by
+default: the reach below covers End Sites, which a joint's own rotation moves too). A rotation error ``δ`` at joint ``i`` moves every descendant ``k`` by at
 most ``2·sin(δ/2)·|p_k − p_i|``, and errors of a chain add up (triangle inequality, distances being
 kept by rotations), so with ``reach_i`` = the largest distance from joint ``i`` to any of its
 descendants or end sites (over all frames, from forward kinematics) and ``H`` the largest number of
