@@ -31,6 +31,27 @@ def naive_positions(motion) -> np.ndarray:
     return out
 
 
+def naive_end_sites(motion) -> np.ndarray:
+    """``(N, E, 3)`` world End Site positions: scipy rotations composed root to joint (batched over
+    frames), no mocapkit kinematics."""
+    sk = motion.skeleton
+    N, J = motion.n_frames, sk.n_joints
+    P = np.zeros((N, J, 3))
+    world = [None] * J
+    for j in range(J):
+        local = Rotation.from_quat(motion.rotations[:, j][:, [1, 2, 3, 0]])
+        p = sk.parents[j]
+        if p < 0:
+            world[j], P[:, j] = local, motion.translations[:, j]
+        else:
+            world[j] = world[p] * local
+            P[:, j] = P[:, p] + world[p].apply(motion.translations[:, j])
+    out = np.zeros((N, len(sk.end_sites), 3))
+    for e, (j, off) in enumerate(sk.end_sites):
+        out[:, e] = P[:, j] + world[j].apply(np.asarray(off, dtype=np.float64))
+    return out
+
+
 def gltf_validator() -> tuple[str, Path]:
     """``(node, node_modules)`` of the Khronos validator; skips where node/npm are missing."""
     node = shutil.which("node")

@@ -90,7 +90,7 @@ def compress(
     max_position_error: MaxPositionErrorOpt = None,
     unit_cm: UnitCmOpt = None,
     gltf_rotations: GltfRotationsOpt = GltfRotations.short,
-    error_metric: ErrorMetricOpt = ErrorMetric.joint,
+    error_metric: ErrorMetricOpt = ErrorMetric.joint_end,
     shell_distance: ShellDistanceOpt = 3.0,
     block_frames: BlockFramesOpt = None,
     entropy: EntropyOpt = "zstd",
@@ -446,7 +446,7 @@ def decompress(
     of a compressed skeletal clip (.mkc -> .bvh/.glb; .glb/.gltf -> .bvh)."""
     # several sensors of a .mkp decode into a folder (one CSV each): an existing folder is a valid output
     _check_output(output, folder=points.suffix.lower() == ".mkp" and output.is_dir(), source=points,
-                  inputs=(times_from,))
+                  inputs=(times_from,))  # a .gltf's buffer files are its companions (io.loaders.companions)
     if points.suffix.lower() in (".glb", ".gltf"):
         _decompress_clip(points, output, times_from, rate)
         return

@@ -199,7 +199,7 @@ def batch_compress(
     unit_cm: UnitCmOpt = None,
     skeletal_format: Annotated[str, typer.Option("--skeletal-format", help="Skeletons as .glb (keyframes, "
                                "standard glTF) or .mkc (the compact clip; needs --max-position-error).")] = "glb",
-    error_metric: ErrorMetricOpt = ErrorMetric.joint,
+    error_metric: ErrorMetricOpt = ErrorMetric.joint_end,
     shell_distance: ShellDistanceOpt = 3.0,
     gltf_rotations: GltfRotationsOpt = GltfRotations.short,
     strict: StrictOpt = True,
@@ -289,8 +289,8 @@ def batch_verify(
     out: OutOpt,
     max_angle: MaxAngleOpt = None,
     max_position_error: MaxPositionErrorOpt = None,
-    error_metric: Annotated[str, typer.Option("--error-metric", help="joint, end-site or shell (see mocapkit verify "
-                                                                     "--help).")] = "joint",
+    error_metric: Annotated[str, typer.Option("--error-metric", help="joint+end, joint or shell (see mocapkit verify "
+                                                                     "--help).")] = "joint+end",
     shell_distance: ShellDistanceOpt = 3.0,
     skeletal_format: Annotated[Optional[str], typer.Option("--skeletal-format", help="glb or mkc, when both are "
                                                            "there.")] = None,

@@ -219,7 +219,7 @@ TargetIcrOpt = Annotated[
 ]
 MaxPositionErrorOpt = Annotated[
     Optional[float],
-    typer.Option("--max-position-error", help="Skeletal input: every joint's world position within CM (verified).",
+    typer.Option("--max-position-error", help="Skeletal input: every joint's and End Site's world position within CM (verified).",
                  callback=_within(1e-6, 1e9)),
 ]
 UnitCmOpt = Annotated[
@@ -238,13 +238,15 @@ GltfRotationsOpt = Annotated[
                                 "(smaller; the bound is still checked on the file) or FLOAT.")
 ]
 class ErrorMetric(str, Enum):
+    joint_end = "joint+end"
     joint = "joint"
     shell = "shell"
 
 
 ErrorMetricOpt = Annotated[
-    ErrorMetric, typer.Option("--error-metric", help="What --max-position-error bounds in a .mkc clip: every joint, "
-                              "or (ACL's metric) every shell point at --shell-distance along each joint's axes.")
+    ErrorMetric, typer.Option("--error-metric", help="What --max-position-error bounds: every joint and End Site "
+                              "(default), the joints only, or (ACL's metric, .mkc only) every shell point at "
+                              "--shell-distance along each joint's axes.")
 ]
 ShellDistanceOpt = Annotated[float, typer.Option("--shell-distance", help="Shell metric: the points' distance "
                                                  "from each joint, in cm (ACL's default 3).",

@@ -20,8 +20,8 @@ EXIT_EXCEEDED = 1
 
 
 class VerifyMetric(str, Enum):
+    joint_end = "joint+end"
     joint = "joint"
-    end_site = "end-site"
     shell = "shell"
 
 
@@ -40,7 +40,7 @@ def _fmt(v, digits=4) -> str:
 def verdict(rec: dict) -> str:
     """One line: the largest error, where it is, the mean, the bound and whether it holds."""
     unit = "°" if rec["error_unit"] == "deg" else " cm"
-    what = {"angle": "angle", "joint": "joint position", "end-site": "joint and End Site position",
+    what = {"angle": "angle", "joint": "joint position", "joint+end": "joint and End Site position",
             "shell": "shell"}[rec["metric"]]
     line = (f"{Path(rec['compressed']).name}: max {what} error {_fmt(rec['max_error'], 6)}{unit} "
             f"({_where(rec['where'])}), mean {_fmt(rec['mean_error'], 6)}{unit}")
@@ -83,8 +83,8 @@ def verify(
     max_angle: MaxAngleOpt = None,
     max_position_error: MaxPositionErrorOpt = None,
     error_metric: Annotated[VerifyMetric, typer.Option(
-        "--error-metric", help="What --max-position-error is checked on: every joint (what compress guarantees), "
-                               "every joint and End Site, or ACL's shell points.")] = VerifyMetric.joint,
+        "--error-metric", help="What --max-position-error is checked on: every joint and End Site (what compress "
+                               "bounds by default), every joint, or ACL's shell points.")] = VerifyMetric.joint_end,
     shell_distance: ShellDistanceOpt = 3.0,
     unit_cm: UnitCmOpt = None,
     asf: AsfOpt = None,

@@ -4,7 +4,8 @@
    frame: nothing stored), *constant* (one value, stored exactly; also a track whose values fit in its
    tolerance corridor), *animated* (rotation vectors, :mod:`~mocapkit.rotvec`, or translations).
 2. **Budget** (:mod:`~mocapkit.clip.budget`): every track's tolerance ``τ`` from the hierarchy, such
-   that the worst case (all errors aligned) keeps every joint or shell point within the bound.
+   that the worst case (all errors aligned) keeps every point of the metric (joints, End Sites or shell
+   points) within the bound.
 3. **Blocks** of ``block_frames`` frames, each coded on its own (random access). In every block every
    animated track gets keyframes on a grid (:mod:`~mocapkit.clip.keys`) at ``S0 = 4`` times its
    worst-case tolerance first, with the grid step (``2τ``, ``√2τ`` or ``τ``) and predictor order (1 or
@@ -31,7 +32,8 @@ import numpy as np
 from mocapkit import __version__
 from mocapkit.clip.budget import track_tolerances
 from mocapkit.clip.keys import choose_keys
-from mocapkit.clip.metric import check_metric, errors_from_fk, worst_errors
+from mocapkit.clip.metric import (check_metric, end_errors_from_fk, end_site_arrays, errors_from_fk,
+                                  worst_point_errors)
 from mocapkit.errors import BoundViolationError, InvalidParameterError
 from mocapkit.io.mkc import mkc_bytes
 from mocapkit.io.mkc_codec import ENTROPY, entropy_encode, pack_block, steps_table, unpack_block
@@ -85,8 +87,9 @@ def _tracks(motion: Motion) -> list[_Track]:
 def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_distance: float = 1.0,
                 unit_cm: float | None = None, block_frames: int = DEFAULT_BLOCK_FRAMES, source: str = "",
                 entropy: str = "zstd", progress: Callable[[int, int], None] | None = None) -> EncodedClip:
-    """Encode ``motion`` so that no joint (``metric="joint"``) or shell point (``"shell"``, at
-    ``shell_distance`` along each joint's local axes) moves by more than ``bound`` in any frame.
+    """Encode ``motion`` so that no joint or End Site (``metric="joint+end"``), joint (``"joint"``) or
+    shell point (``"shell"``, at ``shell_distance`` along each joint's local axes) moves by more than
+    ``bound`` in any frame.
 
     ``bound`` and ``shell_distance`` are in the motion's length unit; ``unit_cm`` (cm per unit) is
     recorded in the file. ``entropy``: ``"zstd"`` (fast to decode), ``"lzma"`` (a few % smaller) or
@@ -104,7 +107,11 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     if not (isinstance(block_frames, int) and block_frames >= 2):
         raise InvalidParameterError(f"block length must be an integer >= 2 frames, got {block_frames!r}")
     sk, N = motion.skeleton, motion.n_frames
-    P0, R0 = forward_kinematics(motion)
+    P0, R0, E0 = forward_kinematics(motion, end_sites=True)
+    with_ends = metric == "joint+end"
+    end_joint, end_off = end_site_arrays(sk)
+    if not with_ends:
+        end_joint, end_off, E0 = end_joint[:0], end_off[:0], E0[:, :0]
     floor = 1e-9 * max(1.0, float(np.abs(P0).max()))
     if bound < floor:
         raise InvalidParameterError(f"max position error {bound:g} is below what float64 forward kinematics "
@@ -112,7 +119,8 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     tracks = _tracks(motion)
     anim = [t for t in tracks if t.cls == "animated"]
     rt, tt = track_tolerances(sk, P0, [t.joint for t in anim if t.kind == "rotation"],
-                              [t.joint for t in anim if t.kind == "translation"], bound, metric, shell_distance)
+                              [t.joint for t in anim if t.kind == "translation"], bound, metric, shell_distance,
+                              ends=E0)
     finite = [v for v in rt.values() if math.isfinite(v)]
     free_rot = min(finite) if finite else 1e-3  # a rotation no point of the metric sees: still kept close
     for t in anim:
@@ -144,8 +152,8 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     for c, t in enumerate(anim):
         by_joint.setdefault(t.joint, []).append(c)
 
-    def movers(k: int) -> list[int]:
-        out = [c for c in by_joint.get(k, []) if anim[c].kind == "translation" or metric == "shell"]
+    def movers(k: int, own_rotation: bool) -> list[int]:
+        out = [c for c in by_joint.get(k, []) if anim[c].kind == "translation" or own_rotation]
         p = parents[k]
         while p >= 0:
             out.extend(by_joint.get(p, []))
@@ -187,13 +195,16 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
         again = []
         for b in pending:
             a, e = spans[b]
-            err = worst_errors(parents_arr, rot_dec[a:e], tr_dec[a:e], P0[a:e], R0[a:e], shell_distance, metric == "shell")
+            err, err_end = worst_point_errors(parents_arr, rot_dec[a:e], tr_dec[a:e], P0[a:e], R0[a:e], shell_distance,
+                                              metric == "shell", end_joint, end_off, E0[a:e])
             bad = np.flatnonzero(err > margin)
-            if bad.size == 0:
+            bad_end = np.flatnonzero(err_end > margin)
+            if bad.size == 0 and bad_end.size == 0:
                 continue
-            cols = sorted({c for k in bad.tolist() for c in movers(k)})
+            cols = sorted({c for k in bad.tolist() for c in movers(k, metric == "shell")}
+                          | {c for k in end_joint[bad_end].tolist() for c in movers(k, True)})
             if not cols or r[b, cols].max() >= START_LEVELS + FLOOR_LEVELS:
-                raise BoundViolationError(f"frames {a}..{e - 1}: error {float(err.max()):.6g} > {bound:g} "
+                raise BoundViolationError(f"frames {a}..{e - 1}: error {max(err.max(), err_end.max(initial=0)):.6g} > {bound:g} "
                                           "even within the worst-case budget")
             r[b, cols] += 1
             encode_block(b, cols)
@@ -215,7 +226,8 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     dec = Clip("<encoded clip>", data=data).decode()
     P1, R1 = forward_kinematics(dec)
     je, se = errors_from_fk(P0, R0, P1, R1, shell_distance)
-    worst = float((se if metric == "shell" else je).max())
+    ee = end_errors_from_fk(sk, P0, R0, P1, R1)  # every End Site, whatever the metric
+    worst = float({"shell": se, "joint": je}.get(metric, np.maximum(je.max(), ee.max(initial=0))).max())
     if worst > bound:
         raise BoundViolationError(f"the written clip decodes to a {metric} error of {worst:.6g} > {bound:g}")
     k = unit_cm if unit_cm is not None else float("nan")
@@ -224,7 +236,9 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
         "shell_distance": shell_distance, "unit_cm": unit_cm,
         "max_joint_error": float(je.max()), "mean_joint_error": float(je.mean()),
         "max_shell_error": float(se.max()), "mean_shell_error": float(se.mean()),
+        "max_end_site_error": float(ee.max(initial=0)),
         "max_joint_error_cm": float(je.max()) * k, "max_shell_error_cm": float(se.max()) * k,
+        "max_end_site_error_cm": float(ee.max(initial=0)) * k,
         "frames": N, "joints": sk.n_joints, "blocks": B, "keyframes": n_keys,
         "tracks": {cls: sum(t.cls == cls for t in tracks) for cls in ("constant", "animated")},
         "default_tracks": 2 * sk.n_joints - len(tracks), "repair_rounds": rounds,

@@ -45,6 +45,7 @@ from __future__ import annotations
 import base64
 import json
 import math
+import re
 import struct
 from pathlib import Path
 
@@ -307,31 +308,95 @@ def _load(path: Path, data: bytes | None = None) -> tuple[dict, bytes]:
             return doc, b""
         if not isinstance(uri, str):
             raise _Bad("buffer 0: uri is not a string")
+        size = _int(buffers[0].get("byteLength"), "buffer 0: byteLength", 1, MAX_FILE_BYTES)
         if uri.startswith("data:"):
-            try:
-                return doc, base64.b64decode(uri.split(",", 1)[1], validate=True)
-            except (IndexError, ValueError):
-                raise _Bad("buffer 0: the data URI is not base64") from None
-        return doc, read_input(path.parent / uri, "glTF buffer", max_stream_bytes=MAX_FILE_BYTES, text=False)
+            return doc, _data_uri(uri, size)
+        return doc, _buffer_file(path, uri, size)
     except _Bad as exc:
         raise MocapFormatError(src, None, str(exc)) from None
 
 
-def external_buffer(path: Path) -> Path | None:
-    """The file of buffer 0 of a ``.gltf`` (its ``uri`` beside it), or ``None`` (embedded, a GLB, or
-    unreadable: the reader reports bad content). Used to check it as an input."""
+def _data_uri(uri: str, size: int) -> bytes:
+    """The ``size`` bytes of a base64 data URI, refused unread when it is longer than ``size`` bytes
+    (with up to 3 bytes of padding, as in a GLB chunk) need, or shorter once decoded."""
+    head, sep, body = uri.partition(",")
+    if not sep or not head.endswith(";base64"):
+        raise _Bad("buffer 0: the data URI is not base64")
+    if len(body) > 4 * ((size + 3 + 2) // 3):
+        raise _Bad(f"buffer 0: the data URI holds {len(body):,} base64 characters, more than byteLength {size:,} needs")
     try:
-        raw = Path(path).read_bytes() if Path(path).stat().st_size <= MAX_FILE_BYTES else b""
-        if raw[:4] == b"glTF":
-            return None
-        doc = _json(raw)
-        buffers = doc.get("buffers") if isinstance(doc, dict) else None
-        uri = buffers[0].get("uri") if isinstance(buffers, list) and buffers and isinstance(buffers[0], dict) else None
-    except (OSError, _Bad, ValueError):
-        return None
+        raw = base64.b64decode(body, validate=True)
+    except ValueError:
+        raise _Bad("buffer 0: the data URI is not base64") from None
+    if len(raw) < size:
+        raise _Bad(f"buffer 0: the data URI holds {len(raw):,} bytes, fewer than byteLength {size:,}")
+    return raw[:size]
+
+
+def buffer_file_path(gltf: str | Path, uri: str) -> Path | None:
+    """The file a ``.gltf``'s buffer ``uri`` names, resolved as :func:`read_gltf` resolves it, or ``None``
+    for a data URI or a URI the reader refuses (so never reads): what an output must not overwrite."""
     if not isinstance(uri, str) or uri.startswith("data:"):
         return None
-    return Path(path).parent / uri
+    try:
+        return _buffer_target(Path(gltf), uri)
+    except _Bad:
+        return None
+
+
+def gltf_buffer_files(path: str | Path) -> list[Path]:
+    """The existing files a ``.gltf`` names as buffers (:func:`buffer_file_path`): inputs read with it,
+    which an output must not overwrite. ``[]`` for any other file, or one that does not parse (the
+    reader reports it)."""
+    p = Path(path)
+    try:
+        if p.suffix.lower() != ".gltf" or not p.is_file() or p.stat().st_size > MAX_FILE_BYTES:
+            return []
+        buffers = _json(p.read_bytes()).get("buffers")
+    except (OSError, _Bad):
+        return []
+    found = (buffer_file_path(p, b.get("uri")) for b in buffers if isinstance(b, dict)) if isinstance(buffers, list) else ()
+    return [f for f in found if f is not None and f.is_file()]
+
+
+def _buffer_target(gltf: Path, uri: str) -> Path:
+    from urllib.parse import unquote
+
+    name = unquote(uri)
+    shown = uri[:80]
+    if not name or "\0" in name or re.match(r"[A-Za-z][A-Za-z0-9+.-]*:", name) or name.startswith(("/", "\\")):
+        raise _Bad(f"buffer 0: uri {shown!r} is not a relative path to a file beside the glTF file")
+    folder = gltf.parent.resolve()
+    target = (folder / name).resolve()
+    if not target.is_relative_to(folder):
+        raise _Bad(f"buffer 0: uri {shown!r} leads out of the glTF file's folder ({target})")
+    return target
+
+
+def _buffer_file(gltf: Path, uri: str, size: int) -> bytes:
+    """The first ``size`` bytes of the buffer file ``uri`` names: a relative path (percent-decoded) to a
+    regular file inside the ``.gltf``'s folder (symlinks resolved), at least ``size`` bytes long. Nothing
+    else is opened: no absolute path, no ``..`` or link out of the folder, no device, pipe or folder."""
+    import os
+    import stat
+
+    shown = uri[:80]
+    target = _buffer_target(gltf, uri)
+    try:
+        fd = os.open(target, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOFOLLOW", 0))
+    except OSError as exc:
+        raise _Bad(f"buffer 0: cannot read {shown!r}: {exc.strerror or exc}") from None
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode):
+        os.close(fd)
+        raise _Bad(f"buffer 0: {shown!r} is not a regular file")
+    with os.fdopen(fd, "rb") as fh:
+        if st.st_size < size:
+            raise _Bad(f"buffer 0: {shown!r} has {st.st_size:,} bytes, fewer than byteLength {size:,}")
+        data = fh.read(size)
+    if len(data) < size:
+        raise _Bad(f"buffer 0: {shown!r} ends after {len(data):,} of byteLength {size:,} bytes")
+    return data
 
 
 def _list(d: dict, key: str) -> list:

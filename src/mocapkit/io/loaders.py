@@ -105,10 +105,9 @@ def companions(path: str | Path, *, asf: str | Path | None = None,
         if labels_beside and p.with_name(p.stem + ".labels.txt").is_file():
             out.append(p.with_name(p.stem + ".labels.txt"))
         if s == ".gltf":
-            from mocapkit.io.gltf import external_buffer
+            from mocapkit.io.gltf import gltf_buffer_files
 
-            buf = external_buffer(p)
-            out += [buf] if buf is not None else []
+            out += gltf_buffer_files(p)
         if s in (".csv", ".txt"):
             from mocapkit.io.imu_sessions import registers_file
             from mocapkit.io.imucsv import detect_format

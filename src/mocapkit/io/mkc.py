@@ -34,6 +34,8 @@ MAGIC = b"MKC\x00"
 VERSION = 1
 PREAMBLE = struct.Struct("<4sHHII")
 MAX_HEADER_JSON = 64 << 20  # bytes of header JSON accepted at most
+#: what ``bound.metric`` may name (the writer's error metrics, :mod:`mocapkit.clip.metric`)
+BOUND_METRICS = ("joint+end", "joint", "shell")
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -18,14 +19,23 @@ import numba
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.mkc import ClipFile
+from mocapkit.io.mkc import BOUND_METRICS, ClipFile
 from mocapkit.io.mkc_codec import entropy_decode, steps_table, unpack_block, unpack_pose
 from mocapkit.rotvec import exp_into
-from mocapkit.skeleton import POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
+from mocapkit.skeleton import MAX_JOINT_FRAMES, POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
 CACHE_BLOCKS = 4
 THREADS = os.cpu_count() or 1  # blocks decoded at once by decode_arrays
 _CHANNELS = set(POSITION_CHANNELS + ROTATION_CHANNELS)
+HEADER_KEYS = {"generator", "source", "frames", "start_time", "frame_time", "times", "unit_cm", "skeleton", "tracks",
+               "keyframes", "bound", "blocks"}
+SKELETON_KEYS = {"names", "parents", "offsets", "channels", "end_sites"}
+FRAME_TIME_RANGE = (1e-6, 1e6)  # s: what the BVH reader accepts
+UNIT_CM_RANGE = (1e-6, 1e6)  # cm per length unit: what --unit-cm accepts
+UNIT_QUATERNION_TOL = 1e-6  # a constant rotation is stored as the unit quaternion it is
+MIN_BASE_STEP = 1e-200  # every level's step (down to 2^-60 of it) stays a normal double
+MAX_TEXT = 4096  # characters of a name, the generator or the source
+_BAD_NAME = re.compile(r"[\s{}]")  # a BVH joint name is one token without braces
 
 
 class Clip:
@@ -36,13 +46,26 @@ class Clip:
         self.path = self.file.path
         h = self.file.header
         self.header = h
+        missing, extra = HEADER_KEYS - h.keys(), h.keys() - HEADER_KEYS
+        if missing or extra:
+            raise self._bad(f"header fields {sorted(missing)} missing" if missing else f"unknown header fields {sorted(extra)}")
+        for key in ("generator", "source"):
+            self._text(h[key], key)
         self.n_frames = self._int(h.get("frames"), "frames", 1)
         if sum(b.frames for b in self.file.blocks) != self.n_frames:
             raise self._bad("the blocks do not cover the clip's frames")
-        self.skeleton = self._skeleton(h.get("skeleton"))
-        self.times = self._times(h)
         self.unit_cm = self._opt_float(h.get("unit_cm"), "unit_cm")
+        if self.unit_cm is not None and not UNIT_CM_RANGE[0] <= self.unit_cm <= UNIT_CM_RANGE[1]:
+            raise self._bad(f"header field unit_cm: {self.unit_cm!r} cm is not between {UNIT_CM_RANGE[0]:g} and {UNIT_CM_RANGE[1]:g}")
+        self.skeleton = self._skeleton(h.get("skeleton"))
+        if self.n_frames * self.skeleton.n_joints > MAX_JOINT_FRAMES:
+            raise self._bad(f"header field frames: {self.n_frames} frames of {self.skeleton.n_joints} joints are more "
+                            f"than {MAX_JOINT_FRAMES:,} joint-frames")
+        self.times = self._times(h)
         self._tracks(h.get("tracks"))
+        self._block_sizes()
+        self._int(h["keyframes"], "keyframes", 0, self.n_frames * len(self.animated))
+        self._bound(h["bound"])
         self._cache: OrderedDict[int, np.ndarray] = OrderedDict()
         self._starts = np.array([b.first for b in self.file.blocks], dtype=np.int64)
 
@@ -60,6 +83,32 @@ class Clip:
             raise self._bad(f"header field {what}: expected a finite number, got {v!r}")
         return float(v)
 
+    def _text(self, v, what: str) -> str:
+        if not isinstance(v, str) or len(v) > MAX_TEXT:
+            raise self._bad(f"header field {what}: expected a string of at most {MAX_TEXT} characters, got {str(v)[:60]!r}")
+        return v
+
+    def _bound(self, b) -> None:
+        if b is None:
+            return
+        if not isinstance(b, dict) or b.keys() != {"metric", "value", "shell_distance"}:
+            raise self._bad(f"header field bound: expected {{metric, value, shell_distance}}, got {str(b)[:80]!r}")
+        if b["metric"] not in BOUND_METRICS:
+            raise self._bad(f"header field bound.metric: {str(b['metric'])[:40]!r} is not one of {', '.join(BOUND_METRICS)}")
+        for key in ("value", "shell_distance"):
+            if not self._float(b[key], f"bound.{key}") > 0:
+                raise self._bad(f"header field bound.{key} must be positive, got {b[key]!r}")
+
+    def _block_sizes(self) -> None:
+        """A block's payload holds two varints a track at least and, per track, a key (a gap and three
+        residuals of at most 10 bytes each) per frame at most."""
+        T = len(self.animated)
+        for i, e in enumerate(self.file.blocks):
+            lo, hi = 2 * T, T * (20 + 40 * e.frames)
+            if not lo <= e.raw <= hi:
+                raise self._bad(f"block {i}: raw length {e.raw} is not between {lo} and {hi} bytes for {T} tracks "
+                                f"of {e.frames} frames")
+
     def _opt_float(self, v, what: str) -> float | None:
         return None if v is None else self._float(v, what)
 
@@ -71,9 +120,15 @@ class Clip:
     def _skeleton(self, s) -> Skeleton:
         if not isinstance(s, dict):
             raise self._bad("header has no skeleton")
+        if s.keys() != SKELETON_KEYS:
+            raise self._bad(f"header field skeleton: expected the fields {sorted(SKELETON_KEYS)}, got {sorted(s)[:10]}")
         names, parents, offsets, channels = (s.get(k) for k in ("names", "parents", "offsets", "channels"))
         if not isinstance(names, list) or not names or not all(isinstance(x, str) for x in names):
             raise self._bad("skeleton names must be a non-empty list of strings")
+        for x in names:
+            if not x or len(x) > MAX_TEXT or _BAD_NAME.search(x):
+                raise self._bad(f"skeleton names: joint name {x[:60]!r} cannot be a BVH joint name (empty, too long, "
+                                "or holds blanks or braces)")
         J = len(names)
         for what, v in (("parents", parents), ("offsets", offsets), ("channels", channels)):
             if not isinstance(v, list) or len(v) != J:
@@ -86,10 +141,12 @@ class Clip:
                 raise self._bad(f"skeleton channels of {names[j]!r} are not BVH channel names: {c!r}")
             ch.append(tuple(c))
         ends = []
-        for e in s.get("end_sites", []) if isinstance(s.get("end_sites", []), list) else [None]:
+        for e in s["end_sites"] if isinstance(s["end_sites"], list) else [None]:
             if not (isinstance(e, list) and len(e) == 2):
-                raise self._bad(f"skeleton end site {e!r} is not [joint, [x, y, z]]")
+                raise self._bad(f"skeleton end site {str(e)[:60]!r} is not [joint, [x, y, z]]")
             ends.append((self._int(e[0], "end site joint", 0, J - 1), tuple(self._floats(e[1], 3, "end site offset"))))
+        if len({j for j, _ in ends}) != len(ends):
+            raise self._bad("skeleton end_sites: a joint has two End Sites (BVH holds one)")
         meta = {}
         if self.header.get("unit_cm") is not None:
             meta["length_unit_cm"] = self._float(self.header["unit_cm"], "unit_cm")
@@ -104,14 +161,23 @@ class Clip:
             t = np.array(self._floats(h["times"], self.n_frames, "times"))
             if self.n_frames > 1 and np.any(np.diff(t) <= 0):
                 raise self._bad("times are not strictly increasing")
-            self.frame_time = float((t[-1] - t[0]) / max(self.n_frames - 1, 1)) or 1.0
-            return t
         t0 = self._float(h.get("start_time"), "start_time")
         dt = self._float(h.get("frame_time"), "frame_time")
-        if not dt > 0:
-            raise self._bad(f"frame_time must be positive, got {dt!r}")
+        lo, hi = FRAME_TIME_RANGE
+        if not lo <= dt <= hi:
+            raise self._bad(f"header field frame_time: {dt!r} s is not between {lo:g} and {hi:g} s")
+        if h.get("times") is not None:
+            self.frame_time = float((t[-1] - t[0]) / max(self.n_frames - 1, 1)) or 1.0
+            if self.n_frames > 1 and not lo <= self.frame_time <= hi:
+                raise self._bad(f"header field times: a mean frame time of {self.frame_time!r} s is not between "
+                                f"{lo:g} and {hi:g} s")
+            return t
         self.frame_time = dt
-        return t0 + np.arange(self.n_frames) * dt
+        t = t0 + np.arange(self.n_frames) * dt
+        if self.n_frames > 1 and not (np.all(np.diff(t) > 0) and abs(t[-1]) <= 1e12):
+            raise self._bad(f"header fields start_time/frame_time: frames at {t0!r} + k·{dt!r} s are not distinct "
+                            "finite times")
+        return t
 
     def _tracks(self, tracks) -> None:
         J = self.skeleton.n_joints
@@ -125,6 +191,8 @@ class Clip:
         for i, t in enumerate(tracks):
             if not isinstance(t, dict):
                 raise self._bad(f"track {i} is not an object")
+            if t.keys() - {"joint", "kind", "class", "value", "base_step"}:
+                raise self._bad(f"header field tracks[{i}]: unknown fields {sorted(t.keys())[:8]}")
             j = self._int(t.get("joint"), f"tracks[{i}].joint", 0, J - 1)
             kind, cls = t.get("kind"), t.get("class")
             if kind not in ("rotation", "translation") or cls not in ("constant", "animated") or (j, kind) in seen:
@@ -133,15 +201,15 @@ class Clip:
             if cls == "constant":
                 if kind == "rotation":
                     q = np.array(self._floats(t.get("value"), 4, f"tracks[{i}].value"))
-                    if not np.linalg.norm(q) > 0:
-                        raise self._bad(f"track {i}: a zero quaternion")
+                    if not abs(math.sqrt(float(q @ q)) - 1.0) <= UNIT_QUATERNION_TOL:
+                        raise self._bad(f"header field tracks[{i}].value: {q.tolist()} is not a unit quaternion")
                     self.rest_rotations[j] = q
                 else:
                     self.rest_translations[j] = self._floats(t.get("value"), 3, f"tracks[{i}].value")
             else:
                 b = self._float(t.get("base_step"), f"tracks[{i}].base_step")
-                if not b > 0:
-                    raise self._bad(f"track {i}: base_step must be positive")
+                if not MIN_BASE_STEP <= b:
+                    raise self._bad(f"header field tracks[{i}].base_step: {b!r} is not a step of at least {MIN_BASE_STEP:g}")
                 self.animated.append((j, kind))
                 bases.append(b)
         self.dims = np.full(len(self.animated), 3, dtype=np.int64)

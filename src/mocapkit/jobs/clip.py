@@ -9,13 +9,13 @@ from mocapkit.errors import InvalidParameterError
 from mocapkit.jobs.common import Progress, no_progress, output_entry, recording
 
 
-def compress_clip_job(path: Path, output: Path, *, max_position_error: float | None, error_metric: str = "joint",
+def compress_clip_job(path: Path, output: Path, *, max_position_error: float | None, error_metric: str = "joint+end",
                       shell_distance: float = 3.0, unit_cm: float | None = None, asf: Path | None = None,
                       rate: float | None = None, strict: bool = True, block_frames: int | None = None,
                       entropy: str = "zstd", progress: Progress = no_progress) -> dict:
-    """Encode a skeletal file as a clip bounded by ``max_position_error`` cm (``error_metric`` joint
-    or shell, shell points ``shell_distance`` cm from each joint); the record holds both metrics as
-    measured by decoding the written bytes."""
+    """Encode a skeletal file as a clip bounded by ``max_position_error`` cm (``error_metric``
+    joint+end, joint or shell, shell points ``shell_distance`` cm from each joint); the record holds
+    every metric as measured by decoding the written bytes."""
     from mocapkit.clip import DEFAULT_BLOCK_FRAMES, encode_clip
     from mocapkit.clip.metric import check_metric
     from mocapkit.io.loaders import load_motion, unit_cm as find_unit
@@ -46,6 +46,7 @@ def compress_clip_job(path: Path, output: Path, *, max_position_error: float | N
                                 "repair_rounds", "repaired_track_blocks", "encode_s", "bytes_raw_float32", "ratio")},
            "max_joint_error_cm": r["max_joint_error"] * ucm, "mean_joint_error_cm": r["mean_joint_error"] * ucm,
            "max_shell_error_cm": r["max_shell_error"] * ucm, "mean_shell_error_cm": r["mean_shell_error"] * ucm,
+           "max_end_site_error_cm": r["max_end_site_error"] * ucm,
            "warnings": list(motion.meta.get("warnings", [])), "output": str(output)}
     rec["outputs"] = [output_entry(output, "mkc", max_position_error, "cm")]
     rec["recording"] = recording(motion, path)

@@ -42,15 +42,18 @@ METHODS = ("fastsw", "sw", "cplr", "swing", "anglesw", "optimal")
 
 
 def check_options(method: str = "fastsw", threshold=None, target_icr=None, max_angle=None,
-                  max_position_error=None, skeletal_format=None, error_metric="joint", per_file: bool = False) -> None:
+                  max_position_error=None, skeletal_format=None, error_metric="joint+end",
+                  per_file: bool = False) -> None:
     """The option checks that need no file: a known method and exactly one control; the batch's
     skeletal output format and what it can bound. ``per_file`` (a batch's own options, completed per
     file): ``max_angle`` and ``max_position_error`` may come together (each bounds its kind of input), or
     no control at all (the files' manifest or sidecars give them)."""
+    from mocapkit.clip.metric import METRICS
+
     if skeletal_format not in (None, "glb", "mkc"):
         raise InvalidParameterError(f"--skeletal-format {skeletal_format!r}: mkc or glb")
-    if error_metric not in ("joint", "shell"):
-        raise InvalidParameterError(f"--error-metric {error_metric!r}: joint or shell")
+    if error_metric not in METRICS:
+        raise InvalidParameterError(f"--error-metric {error_metric!r}: one of {', '.join(METRICS)}")
     if error_metric == "shell" and skeletal_format == "glb":
         raise InvalidParameterError("--error-metric shell is bounded in .mkc clips: add --skeletal-format mkc")
     if method not in METHODS:
@@ -72,7 +75,7 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
                  asf: Path | None = None, max_position_error: float | None = None, unit_cm: float | None = None,
                  strict: bool = True, output: Path | None = None, points_stream: TextIO | None = None,
                  discard_ok: bool = True, progress: Progress = no_progress, gltf_rotations: str = "short",
-                 error_metric: str = "joint", shell_distance: float = 3.0, block_frames: int | None = None,
+                 error_metric: str = "joint+end", shell_distance: float = 3.0, block_frames: int | None = None,
                  skeletal_format: str | None = None, entropy: str = "zstd") -> dict:
     """Compress ``path`` and return the record of ``mocapkit compress --json``.
 
@@ -84,7 +87,8 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
     a bound, the written file is decoded and checked against it (:mod:`mocapkit.jobs.gltf_out`).
     ``discard_ok=False`` refuses, before any work, a run whose points would go nowhere. A ``.mkc`` output is
     the clip format (:mod:`mocapkit.jobs.clip`): bounded by ``max_position_error`` in the ``error_metric``
-    (``"joint"`` or ``"shell"`` at ``shell_distance`` cm), ``block_frames`` frames per random-access block.
+    (``"joint+end"``: every joint and End Site, ``"joint"``: the joints only, or ``"shell"`` at
+    ``shell_distance`` cm; a glTF output takes the first two), ``block_frames`` frames per random-access block.
     ``entropy``: the clip's lossless stage (``"zstd"``, ``"lzma"``, ``"smallest"``).
     ``skeletal_format`` (``"mkc"``/``"glb"``) is the batch's choice of a skeletal output's format (its path
     carries it: :func:`mocapkit.jobs.batch_output`).
@@ -112,11 +116,12 @@ def compress_job(path: Path, *, method: str = "fastsw", threshold: float | None 
             return compress_clip_job(path, output, max_position_error=max_position_error, error_metric=error_metric,
                                      shell_distance=shell_distance, unit_cm=unit_cm, asf=asf, rate=rate,
                                      strict=strict, block_frames=block_frames, entropy=entropy, progress=progress)
-        if error_metric != "joint" or block_frames is not None or entropy != "zstd":
+        if error_metric == "shell" or block_frames is not None or entropy != "zstd":
             raise InvalidParameterError("--error-metric shell, --block-frames and --entropy apply to a .mkc clip "
                                         "(-o CLIP.mkc)")
         return _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle,
-                         max_segment_length, rate, asf, unit_cm, strict, progress, gltf_rotations, shell_distance)
+                         max_segment_length, rate, asf, unit_cm, strict, progress, gltf_rotations, shell_distance,
+                         error_metric == "joint+end")
     if max_position_error is not None or asf is not None or unit_cm is not None:
         raise InvalidParameterError("--max-position-error, --asf and --unit-cm apply to BVH/AMC input")
     return _imu(path, output, method, threshold, target_icr, max_angle, max_segment_length, rate,
@@ -186,7 +191,8 @@ def _imu(path, output, method, threshold, target_icr, max_angle, max_segment_len
 
 
 def _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle, max_segment_length,
-              rate, asf, unit_cm, strict, progress, gltf_rotations="short", shell_distance=3.0) -> dict:
+              rate, asf, unit_cm, strict, progress, gltf_rotations="short", shell_distance=3.0,
+              end_sites=True) -> dict:
     from mocapkit.io.bvh import write_bvh
     from mocapkit.io.gltf import ROTATION_FORMATS
     from mocapkit.io.loaders import load_motion, unit_cm as find_unit
@@ -211,13 +217,15 @@ def _skeletal(path, output, method, threshold, target_icr, max_position_error, m
         if gltf_out and bound is not None:  # the bound is checked on the decoded file (written here)
             comp, stored = compress_to_gltf(motion, bound, output, rotations=gltf_rotations, unit_m=ucm / 100.0,
                                             name=path.stem, method=method, max_segment_length=max_segment_length,
-                                            progress=update)
+                                            progress=update, end_sites=end_sites)
         else:
             comp = compress_motion(motion, method, threshold=threshold, target_icr=target_icr,
-                                   max_position_error=bound, max_segment_length=max_segment_length, progress=update)
+                                   max_position_error=bound, max_segment_length=max_segment_length, progress=update,
+                                   end_sites=end_sites)
             if bound is not None:
-                verify_position_bound(motion, comp, bound)
+                verify_position_bound(motion, comp, bound, end_sites)
     rec = {"job": "compress", "file": str(path), "kind": "skeletal", **report(comp, ucm), "unit_cm_assumed": assumed,
+           "error_metric": "joint+end" if end_sites else "joint",
            "warnings": list(motion.meta.get("warnings", [])), "outputs": []}
     from mocapkit.clip.metric import position_errors as point_errors
 

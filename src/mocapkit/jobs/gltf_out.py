@@ -62,7 +62,7 @@ def every_frame(motion):
     return out
 
 
-def storage_error_bound(motion, rotations: str, bound: float = 0.0) -> float:
+def storage_error_bound(motion, rotations: str, bound: float = 0.0, end_sites: bool = False) -> float:
     """Worst-case world-position error (file units) that storing keyframes of ``motion`` in glTF adds.
 
     Per joint ``i`` with a rotation track: the key angle of the format (``SHORT_KEY_ANGLE`` or
@@ -74,7 +74,8 @@ def storage_error_bound(motion, rotations: str, bound: float = 0.0) -> float:
     ``δ_i·|p_k − p_i|``, with ``|p_k − p_i|`` at most the sum of the bone lengths between them (largest
     over frames) plus ``2·bound`` (the decoded motion's joints are within ``bound`` of the original's);
     a translation error moves its joint's subtree by itself; errors of a chain add (triangle inequality,
-    rotations keep distances). One pass over the joints, parents first.
+    rotations keep distances). One pass over the joints, parents first. With ``end_sites`` the End
+    Sites too: each is a bone of its offset's length below its joint, moved by that joint's rotation.
     """
     from mocapkit.io.gltf import FLOAT_KEY_ANGLE, ROTATION_FORMATS, SHORT_KEY_ANGLE
     from mocapkit.pla.skeletal import animated_tracks
@@ -109,24 +110,33 @@ def storage_error_bound(motion, rotations: str, bound: float = 0.0) -> float:
         bone = float(np.linalg.norm(P[:, k] - P[:, p], axis=-1).max())
         W[k] = W[p] + w[p]
         Q[k] = Q[p] + W[k] * bone + v[k]
-    return float((Q + 2.0 * bound * W).max())
+    worst = float((Q + 2.0 * bound * W).max())
+    for j, off in sk.end_sites if end_sites else ():
+        lever = W[j] + w[j]
+        worst = max(worst, float(Q[j] + lever * (float(np.linalg.norm(off)) + 2.0 * bound)))
+    return worst
 
 
-def readback_error(motion, path: Path, data: bytes | None = None) -> float:
+def readback_error(motion, path: Path, data: bytes | None = None, end_sites: bool = False) -> float:
     """Largest world-position distance (file units) between ``motion`` and the glTF ``path`` (or its
-    bytes ``data``) decoded by :func:`~mocapkit.io.gltf.read_gltf`, over every joint and frame."""
+    bytes ``data``) decoded by :func:`~mocapkit.io.gltf.read_gltf`, over every joint (and End Site with
+    ``end_sites``) and frame."""
     from mocapkit.io.gltf import read_gltf
-    from mocapkit.skeleton import forward_kinematics
+    from mocapkit.pla.skeletal import position_errors
 
     back = read_gltf(path, data=data)
     if back.n_frames != motion.n_frames or back.skeleton.names != motion.skeleton.names:
         raise BoundViolationError(f"{path}: the written clip does not decode to the input's frames and joints")
-    return float(np.linalg.norm(forward_kinematics(back)[0] - forward_kinematics(motion)[0], axis=-1).max())
+    if end_sites and [j for j, _ in back.skeleton.end_sites] != [j for j, _ in motion.skeleton.end_sites]:
+        raise BoundViolationError(f"{path}: the written clip does not decode to the input's End Sites")
+    return float(position_errors(motion, back, end_sites).max())
 
 
 def compress_to_gltf(motion, bound: float, output: Path, *, rotations: str = "short", unit_m: float = 0.01,
-                     name: str = "mocapkit", method: str = "fastsw", max_segment_length=None, progress=None):
-    """Compress ``motion`` with every joint within ``bound`` (file units) on the decoded file, and write
+                     name: str = "mocapkit", method: str = "fastsw", max_segment_length=None, progress=None,
+                     end_sites: bool = False):
+    """Compress ``motion`` with every joint (and End Site with ``end_sites``) within ``bound`` (file
+    units) on the decoded file, and write
     it to ``output`` (``.glb``/``.gltf``; module notes). Returns the compression and a dict of what was
     done (``rotations`` used, the bounds compressed to, storage error bound and measured, read-back
     error, attempts, warnings)."""
@@ -142,18 +152,18 @@ def compress_to_gltf(motion, bound: float, output: Path, *, rotations: str = "sh
 
     def attempt(e_c, fmt):
         comp = compress_motion(motion, method, max_position_error=e_c, max_segment_length=max_segment_length,
-                               progress=progress)
+                               progress=progress, end_sites=end_sites)
         data = encode(comp, fmt)
-        return comp, data, readback_error(motion, output, data)
+        return comp, data, readback_error(motion, output, data, end_sites)
 
     full_short = None  # (comp, bytes, error) of SHORT with every frame a key, when within the bound
 
     def plan(fmt):
         nonlocal full_short
-        Q = storage_error_bound(motion, fmt, bound)
+        Q = storage_error_bound(motion, fmt, bound, end_sites)
         full = every_frame(motion)
         data = encode(full, fmt)
-        q0 = readback_error(motion, output, data)
+        q0 = readback_error(motion, output, data, end_sites)
         if fmt == "short" and q0 <= bound:
             full.info = {"mode": "max_position_error", "bound": 0.0, "keys": "every frame"}
             full_short = (full, data, q0)
@@ -196,7 +206,7 @@ def compress_to_gltf(motion, bound: float, output: Path, *, rotations: str = "sh
         tried.append({"rotations": fmt, "compress_bound": 0.0, "readback_error": err})
     write_gltf(output, comp, unit_m=unit_m, name=name, rotations=fmt, data=data)
     if not is_device_or_pipe(output):
-        err_file = readback_error(motion, output)
+        err_file = readback_error(motion, output, end_sites=end_sites)
         if err_file > bound:
             output.unlink(missing_ok=True)
             raise BoundViolationError(f"{output}: read back from disk it is {err_file:.6g} from the input, "

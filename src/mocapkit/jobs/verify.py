@@ -24,12 +24,12 @@ BOUND_TOL = 1e-9
 TICK_POINTS_HEADER = ("time", "w", "x", "y", "z", "tick", "gap_before")
 #: what a skeletal bound is checked on: every joint (the guarantee of ``compress --max-position-error``), every
 #: joint and End Site, or ACL's shell metric; the record holds all three
-METRICS = {"joint": "joint_positions", "end-site": "positions", "shell": "shell"}
+METRICS = {"joint+end": "positions", "joint": "joint_positions", "shell": "shell"}
 #: suffixes of the skeletal files ``verify`` decodes
 SKELETAL_OUTPUTS = (".mkc", ".glb", ".gltf", ".bvh")
 
 
-def check_options(max_angle=None, max_position_error=None, error_metric="joint", shell_distance=3.0,
+def check_options(max_angle=None, max_position_error=None, error_metric="joint+end", shell_distance=3.0,
                   skeletal_format=None) -> None:
     """The checks that need no file: bounds in range (both may be given: each bounds its kind, as in a
     mixed batch), a known metric, a positive shell distance."""
@@ -46,7 +46,7 @@ def check_options(max_angle=None, max_position_error=None, error_metric="joint",
 
 
 def verify_job(path: Path, output: Path | None = None, *, compressed: Path | None = None,
-               max_angle: float | None = None, max_position_error: float | None = None, error_metric: str = "joint",
+               max_angle: float | None = None, max_position_error: float | None = None, error_metric: str = "joint+end",
                shell_distance: float = 3.0, unit_cm: float | None = None, asf: Path | None = None,
                rate: float | None = None, strict: bool = True, time_column: str | None = None,
                quaternion_columns: str | None = None, scalar_last: bool = False, time_unit: str | None = None,
@@ -56,7 +56,7 @@ def verify_job(path: Path, output: Path | None = None, *, compressed: Path | Non
     :func:`mocapkit.jobs.batch_output` found under ``compressed_dir``) and return the record.
 
     ``max_angle`` (deg) bounds IMU data, ``max_position_error`` (cm) skeletons in ``error_metric`` ``"joint"``
-    (every joint), ``"end-site"`` (every joint and End Site) or ``"shell"`` (ACL's: points ``shell_distance``
+    (every joint), ``"joint+end"`` (every joint and End Site, the default: what ``compress`` bounds) or ``"shell"`` (ACL's: points ``shell_distance``
     cm along each joint's axes).
     ``unit_cm``, ``asf``, ``rate``, ``strict`` and the IMU column options are those of the original's reader.
     """
@@ -296,7 +296,7 @@ def _skeletal(path, compressed, bound, metric, shell_distance, unit_cm, asf, rat
         at = s["end_site_positions"]["max_at"]
         warnings.append(f"{compressed}: End Sites are not within {bound:g} cm (the bound covers joints): "
                         f"{at['point']} is {s['end_site_positions']['max_cm']:.4g} cm off at frame {at['frame']} "
-                        "(--error-metric end-site checks them)")
+                        "(--error-metric joint+end checks them)")
     return {"job": "verify", "file": str(path), "compressed": str(compressed), "kind": "skeletal",
             "format": compressed.suffix.lower()[1:], "metric": metric,
             "error_unit": "cm", "max_error": chosen["max_cm"], "mean_error": chosen["mean_cm"],

@@ -2,7 +2,8 @@
 local translation a 3-D vector stream, each compressed with the PLA methods.
 
 Error in the user's terms (``max_position_error``): every joint's *world-space* position in every
-frame stays within the bound. A rotation error ``δ`` at joint ``i`` moves every descendant ``k`` by at
+frame stays within the bound (and every End Site's with ``end_sites=True``, what ``compress`` asks by
+default: the reach below covers End Sites, which a joint's own rotation moves too). A rotation error ``δ`` at joint ``i`` moves every descendant ``k`` by at
 most ``2·sin(δ/2)·|p_k − p_i|``, and errors of a chain add up (triangle inequality, distances being
 kept by rotations), so with ``reach_i`` = the largest distance from joint ``i`` to any of its
 descendants or end sites (over all frames, from forward kinematics) and ``H`` the largest number of
@@ -111,11 +112,14 @@ def animated_tracks(motion: Motion) -> tuple[list[int], list[int]]:
     return rot, tr
 
 
-def position_errors(original: Motion, decoded: Motion) -> np.ndarray:
-    """``(N, J)`` world-space distance of every joint in every frame (file units)."""
-    P0, _ = forward_kinematics(original)
-    P1, _ = forward_kinematics(decoded)
-    return np.linalg.norm(P1 - P0, axis=-1)
+def position_errors(original: Motion, decoded: Motion, end_sites: bool = False) -> np.ndarray:
+    """``(N, J)`` world-space distance of every joint in every frame (file units); with ``end_sites``
+    ``(N, J + E)``: the End Sites' distances follow the joints'."""
+    if not end_sites:
+        return np.linalg.norm(forward_kinematics(decoded)[0] - forward_kinematics(original)[0], axis=-1)
+    P0, _, E0 = forward_kinematics(original, end_sites=True)
+    P1, _, E1 = forward_kinematics(decoded, end_sites=True)
+    return np.linalg.norm(np.concatenate([P1 - P0, E1 - E0], axis=1), axis=-1)
 
 
 REACH_EXACT_BUDGET = 20_000_000  # joint-pair distances computed exactly at most (else a safe upper bound)
@@ -193,6 +197,7 @@ def compress_motion(
     max_position_error: float | None = None,
     max_segment_length: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    end_sites: bool = False,
 ) -> SkeletalCompressed:
     """Compress every track of ``motion``.
 
@@ -207,7 +212,8 @@ def compress_motion(
     target_icr
         Pooled ICR over all tracks; one threshold found by bisection.
     max_position_error
-        Bound on every joint's world position error in every frame, in file units (see module notes).
+        Bound on every joint's world position error in every frame, in file units (see module notes);
+        with ``end_sites`` every End Site's too.
     progress
         Called as ``progress(done, total)`` after each full compression of the searches (bisection
         steps of ``target_icr`` and ``max_position_error``).
@@ -230,7 +236,7 @@ def compress_motion(
         return out
     if target_icr is not None:
         return _to_icr(motion, method, target_icr, rs, ts, max_segment_length, progress)
-    return _to_position_bound(motion, float(max_position_error), rs, ts, max_segment_length, progress)
+    return _to_position_bound(motion, float(max_position_error), rs, ts, max_segment_length, progress, end_sites)
 
 
 def _size(motion: Motion) -> float:
@@ -288,17 +294,22 @@ def _to_icr(motion, method, target, rs, ts, maxlen, progress=None) -> SkeletalCo
     return best
 
 
-def _to_position_bound(motion, E, rs, ts, maxlen, progress=None) -> SkeletalCompressed:
+def _to_position_bound(motion, E, rs, ts, maxlen, progress=None, end_sites=False) -> SkeletalCompressed:
     """Check once, repair locally: every track starts at ``START_SCALE`` times its safe budget
     (module notes); one forward kinematics finds the joints beyond ``E``; only the tracks that move
     them (their ancestors' rotations, their own and their ancestors' translations) are tightened by
     √2 and re-encoded, and the check runs again. At scale ≤ 1 a track is within its safe budget, so
-    the repair ends; the result is checked like every other."""
+    the repair ends; the result is checked like every other. With ``end_sites`` the End Sites are
+    checked too (``reach`` already covers them; an End Site is also moved by its joint's rotation)."""
     if not (math.isfinite(E) and E > 0):
         raise InvalidParameterError(f"max position error must be a positive number, got {E!r}")
     reach = _reach(motion)
     H = _chain_depth(motion, list(rs), list(ts))
-    P0 = forward_kinematics(motion)[0]  # the original's positions, computed once
+    P0, _, E0 = forward_kinematics(motion, end_sites=True)  # the original's positions, computed once
+    ends = [j for j, _ in motion.skeleton.end_sites] if end_sites else []
+    if not end_sites:
+        E0 = E0[:, :0]
+    J = motion.skeleton.n_joints
     floor = 1e-9 * max(1.0, float(np.abs(P0).max()))  # far above float64 FK round-off (~1e-15 relative)
     if E < floor:
         raise InvalidParameterError(f"max position error {E:g} is below what float64 forward kinematics "
@@ -321,6 +332,9 @@ def _to_position_bound(motion, E, rs, ts, maxlen, progress=None) -> SkeletalComp
     parents = motion.skeleton.parents.tolist()
 
     def movers(k: int) -> set:
+        if k >= J:  # an End Site: its joint's rotation and what moves its joint
+            k = ends[k - J]
+            return movers(k) | ({("r", k)} & level.keys())
         found = {("t", k)} & level.keys()
         p = parents[k]
         while p >= 0:
@@ -333,7 +347,10 @@ def _to_position_bound(motion, E, rs, ts, maxlen, progress=None) -> SkeletalComp
         encode(key)
     rounds = 0
     while True:
-        worst = np.linalg.norm(forward_kinematics(out.decode())[0] - P0, axis=-1).max(axis=0)
+        P1, _, E1 = forward_kinematics(out.decode(), end_sites=True)
+        if not end_sites:
+            E1 = E1[:, :0]
+        worst = np.linalg.norm(np.concatenate([P1 - P0, E1 - E0], axis=1), axis=-1).max(axis=0)
         err = float(worst.max())
         bad = np.flatnonzero(worst > E * (1 - 1e-6))  # a margin for the rounding of written files
         keys = {k for j in bad.tolist() for k in movers(j) if level[k] < safe_level}
@@ -354,9 +371,10 @@ def _to_position_bound(motion, E, rs, ts, maxlen, progress=None) -> SkeletalComp
     return out
 
 
-def verify_position_bound(motion: Motion, comp: SkeletalCompressed, bound: float) -> float:
-    """Independent check by forward kinematics of the decoded motion; returns the max error."""
-    err = float(position_errors(motion, comp.decode()).max())
+def verify_position_bound(motion: Motion, comp: SkeletalCompressed, bound: float, end_sites: bool = False) -> float:
+    """Independent check by forward kinematics of the decoded motion (joints, and End Sites with
+    ``end_sites``); returns the max error."""
+    err = float(position_errors(motion, comp.decode(), end_sites).max())
     if err > bound * (1 + BOUND_TOL):
         raise BoundViolationError(f"world position error {err:.6g} exceeds the bound {bound:g}")
     return err
@@ -369,6 +387,7 @@ def report(comp: SkeletalCompressed, unit_cm: float | None = None) -> dict:
     m = comp.motion
     dec = comp.decode()
     perr = position_errors(m, dec)
+    eerr = position_errors(m, dec, end_sites=True)[:, m.skeleton.n_joints:]
     k = unit_cm if unit_cm is not None else float("nan")
     ang = [angular_distance(m.rotations[:, j], dec.rotations[:, j], degrees=True) for j in comp.rotations]
     ang = np.concatenate(ang) if ang else np.zeros(1)
@@ -385,6 +404,7 @@ def report(comp: SkeletalCompressed, unit_cm: float | None = None) -> dict:
         "mean_position_error": float(perr.mean()),
         "max_position_error_cm": float(perr.max()) * k,
         "mean_position_error_cm": float(perr.mean()) * k,
+        "max_end_site_error_cm": float(eerr.max(initial=0.0)) * k,
         "unit_cm": unit_cm,
         "aad_deg": float(ang.mean()),
         "max_deg": float(ang.max()),
