@@ -34,7 +34,7 @@ from mocapkit.batch.output_guard import OutputGuard
 from mocapkit.batch.journal import JOURNAL_NAME, Journal, read_journal
 from mocapkit.batch.results import RESULTS_NAME, read_results, write_results
 from mocapkit.batch.worker import configure_numba_cache, failed_row, ignore_interrupts, options_hash, run_one
-from mocapkit.errors import InvalidParameterError, MocapError
+from mocapkit.errors import InvalidParameterError, MocapError, error_line
 
 ENGINES = ("local", "dask")
 #: a compress job's controls (one per input: a batch may give them per kind or per file)
@@ -192,8 +192,13 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
         if f in kept:
             continue
         fo = per_file[f]
-        output = batch_output(job, f, fo.options, bases[f], make=False)
-        problem = None if output is None else guard.problem(output)
+        try:
+            output = batch_output(job, f, fo.options, bases[f], make=False)
+        except MocapError as e:  # this input's own problem (verify: no compressed output found): its row only
+            refused.append(failed_row(job, f, fo.options, error_line(e)))
+            continue
+        # verify's "output" is the compressed file it reads, never written
+        problem = None if output is None or job == "verify" else guard.problem(output)
         if problem is None:
             tasks.append(Task(f, bases[f], fo.options, fo.notes))
         else:
