@@ -165,7 +165,9 @@ def scipy_imu(original: Path, compressed: Path) -> tuple[float, float]:
 # ---- every shared file -------------------------------------------------------------------------------
 
 IMU_FILES = ["imu/xio-lower-body", "imu/apdm/imuData01.csv", "imu/optitrack/sample_optitrack_take.csv",
-             "imu/xsens-dot/LFemur_20210820_202113_831.csv"]
+             "imu/xsens-dot/LFemur_20210820_202113_831.csv", "imu/xsens-mtmanager/MT46_01-000_00B42D4D.txt",
+             "imu/xsens-mtmanager/MT_012005D6_009-001_00B421E6.txt",
+             "opensim/myComplexTasksTrial_orientations.sto"]
 
 
 @pytest.fixture(scope="module")
@@ -186,7 +188,7 @@ def imu_outputs(shared_data, tmp_path_factory):
 
 
 def test_imu_shared_files_agree_with_scipy(imu_outputs):
-    assert len(imu_outputs) >= 6
+    assert len(imu_outputs) == 2 * len(IMU_FILES)
     for src, comp in imu_outputs:
         rec = verify_job(src, compressed=comp, max_angle=2.0)
         ref_max, ref_mean = scipy_imu(src, comp)
@@ -200,7 +202,9 @@ def test_imu_shared_files_agree_with_scipy(imu_outputs):
 #: frames twice takes a minute; the comparison itself is the same code for any length)
 SKELETAL_FILES = [("bvh/walk-meredith.bvh", None, 240), ("bvh/perception-neuron-freya.bvh", None, 120),
                   ("cmu/86_01.amc", "cmu/86.asf", 240), ("bvh/mocapbank.bvh", None, 120),
-                  ("bvh/cmu-131_01-3dsmax.bvh", None, 120), ("bvh/mixamo-rig.bvh", None, 120)]
+                  ("bvh/cmu-131_01-3dsmax.bvh", None, 120), ("bvh/mixamo-rig.bvh", None, 120),
+                  ("cmu/13_29.amc", "cmu/86.asf", 120), ("cmu/13_30.amc", "cmu/86.asf", 120),
+                  ("cmu/14_14.amc", "cmu/86.asf", 120)]
 
 
 def _first_frames(src: Path, n: int, dest: Path) -> Path:
@@ -239,7 +243,7 @@ def test_skeletal_shared_files_agree_with_scipy(skeletal_outputs):
     from mocapkit.io.gltf import read_gltf
     from mocapkit.io.mkc_reader import read_mkc
 
-    assert len(skeletal_outputs) >= 8
+    assert len(skeletal_outputs) == 2 * len(SKELETAL_FILES)
     for src, comp, asf in skeletal_outputs:
         rec = verify_job(src, compressed=comp, max_position_error=0.5, asf=asf)
         original = load_motion(src, asf=asf)
