@@ -8,7 +8,9 @@ Usage (``make fuzz`` runs it with 5,000 cases)::
 Prints a table of category × outcome counts and the failing cases grouped by owner area, writes
 ``OUT/report.json`` (every case) and ``OUT/report.md``, keeps the input files of every failing case in
 ``OUT/cases/<id>/`` (passing cases are deleted), and exits 1 when any case crashed, hung, blew up its
-memory, gave a wrong-but-silent result, modified its input or replaced a device, pipe or symlink.
+memory, gave a wrong-but-silent result, modified its input, wrote outside its output folder or replaced a
+device, pipe or symlink (``exceeded``, a ``verify`` bound exceeded, and ``partial``, a batch with error rows,
+are counted, not failures).
 Parts: ``tests/trial`` (seeds, mutators, generators, runner, oracle, cases).
 """
 
