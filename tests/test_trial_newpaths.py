@@ -324,3 +324,13 @@ def test_sensor_names_from_a_sto_never_leave_the_output_folder(trial, tests_data
     if r.returncode == 0:
         assert len([p for p in folder.iterdir() if p.suffix == ".csv"]) == len(cols) - 1
 
+
+
+@pytest.mark.parametrize("db", ["fifo", "/dev/zero", "/dev/null"])
+def test_catalog_that_is_a_fifo_or_a_device_is_refused_at_once(trial, tmp_path, db):
+    """A FIFO as ``--db`` made ``catalog query`` wait forever for a writer."""
+    if db == "fifo":
+        db = tmp_path / "catalog.duckdb"
+        os.mkfifo(db)
+    r = trial.run(["catalog", "query", "--db", db, "SELECT 1"], timeout=15, cwd=tmp_path)
+    checks.assert_clean_error(r, Path(db).name, "--db")
