@@ -334,3 +334,16 @@ def test_catalog_that_is_a_fifo_or_a_device_is_refused_at_once(trial, tmp_path, 
         os.mkfifo(db)
     r = trial.run(["catalog", "query", "--db", db, "SELECT 1"], timeout=15, cwd=tmp_path)
     checks.assert_clean_error(r, Path(db).name, "--db")
+
+
+def test_catalog_table_of_one_huge_value_stays_small(trial, made, tmp_path):
+    """A 20 MB value in the table view: rich folded all of it into the table (100 MB took a minute and ran
+    out of a 2 GB address space); CSV keeps it whole."""
+    sql = "SELECT repeat('x', 20000000) AS big, 1 AS n"
+    r = trial.run(["catalog", "query", "--db", made["catalog"], sql], timeout=30, cwd=tmp_path)
+    checks.assert_ok(r)
+    assert r.seconds < 10 and len(r.stdout) < 100_000, (r.seconds, len(r.stdout))
+    assert "20000000 characters" in r.out_text
+    r = trial.run(["catalog", "query", "--db", made["catalog"], sql, "--format", "csv"], timeout=30, cwd=tmp_path)
+    checks.assert_ok(r)
+    assert r.out_text.splitlines()[1] == "x" * 20_000_000 + ",1"
