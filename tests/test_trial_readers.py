@@ -19,6 +19,7 @@ from hypothesis import HealthCheck, given, note, settings
 from hypothesis import strategies as st
 
 from trial import checks, mutators, server
+from trial.cases import CRC_FORMATS
 from trial.seeds import build_seeds
 
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="the trial forks")
@@ -52,6 +53,7 @@ GROUPS = {
     "skeletal": {"bvh", "amc", "asf", "mvnx", "glb", "gltf"},
     "markers": {"qtm", "c3d", "trc", "vicon", "mot", "sto"},
     "imu": {"imu", "points"},
+    "packets": {"mkp", "mkc", "mkpoints"},
 }
 
 
@@ -86,7 +88,9 @@ def _check_one(trial, seeds, tmp_path, group, data):
             shutil.copyfile(seed.companion, ccomp)
         complete = trial.digest(*_target(seed, cdir / seed.path.name, ccomp))
     target = _target(seed, path, companion)
-    if mut.expect in ("refuse", "truncated") and not seed.binary:
+    if seed.fmt in CRC_FORMATS:  # every byte under a CRC: refused, reported as a lost packet, or no change
+        checks.assert_not_silent(trial, target[0], target[1], refs[seed.name], target[2])
+    elif mut.expect in ("refuse", "truncated") and not seed.binary:
         checks.assert_not_silent(trial, target[0], target[1], refs[seed.name], target[2], complete)
     else:
         rep = trial.digest(*target)
@@ -115,3 +119,12 @@ def test_marker_readers_under_mutation(trial, seeds, tmp_path, data):
 @given(data=st.data())
 def test_imu_readers_under_mutation(trial, seeds, tmp_path, data):
     _check_one(trial, seeds, tmp_path, "imu", data)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                                                 HealthCheck.too_slow])
+@given(data=st.data())
+def test_packet_and_clip_readers_under_mutation(trial, seeds, tmp_path, data):
+    """.mkp, .mkc and the tick points CSV: a mutation is refused, reported (a damaged or lost packet) or
+    reads the same data."""
+    _check_one(trial, seeds, tmp_path, "packets", data)

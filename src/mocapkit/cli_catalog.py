@@ -33,6 +33,17 @@ class Format(str, Enum):
 
 #: rows a rich table shows; the rest are counted, not kept (CSV and JSON write every row)
 TABLE_ROWS = 1000
+#: characters of one value a table cell shows (CSV and JSON write it whole)
+TABLE_CELL_CHARS = 2000
+
+
+def _table_cell(v) -> str:
+    from mocapkit.catalog import printing
+
+    text = printing.cell(v)
+    if len(text) <= TABLE_CELL_CHARS:
+        return text
+    return f"{text[:TABLE_CELL_CHARS]}… ({len(text)} characters; --format csv or json writes them all)"
 
 
 def _one_statement(sql: str) -> str:
@@ -46,7 +57,8 @@ def query(
     sql: Annotated[str, typer.Argument(help="One SQL statement that reads, e.g. \"SELECT kind, count(*) FROM "
                                             "recordings GROUP BY kind\".", callback=_one_statement)],
     db: DbOpt,
-    fmt: Annotated[Format, typer.Option("--format", help="table (rich, on stdout; the first 1000 rows), csv, "
+    fmt: Annotated[Format, typer.Option("--format", help="table (rich, on stdout; the first 1000 rows, 2000 "
+                                                         "characters of a value), csv, "
                                                          "or json (an array of objects, one a line).")] = Format.table,
 ) -> None:
     """Run one reading SQL statement on the catalog (opened read-only; COPY, ATTACH, INSTALL/LOAD, PRAGMA,
@@ -78,7 +90,7 @@ def query(
     for c in cols:
         tab.add_column(Text(c), overflow="fold")
     for r in shown:
-        tab.add_row(*(Text(printing.cell(v)) for v in r))  # Text: a value is never read as rich markup
+        tab.add_row(*(Text(_table_cell(v)) for v in r))  # Text: a value is never read as rich markup
     console.print(tab)
     if cut:
         console.print(f"the first {len(shown)} of {total} rows shown (--format csv or json writes them all)",

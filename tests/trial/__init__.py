@@ -8,7 +8,8 @@
   address-space limit, and the classification of what happened (ok, clean error, crash, hang...);
 - :mod:`tests.trial.oracle`: the checks that need more than the exit code (strict JSON, written files
   read back, input hashes, devices/pipes/symlinks kept, the differential "wrong but silent" check);
-- :mod:`tests.trial.cases`: the case generators per category used by ``tools/trial.py``.
+- :mod:`tests.trial.cases`: the case generators per category used by ``tools/trial.py`` (hostile SQL,
+  batch manifests, glTF buffer URIs and sensor names that are paths included).
 
 The default test suite uses a few cases of each category (``tests/test_trial_*.py``); ``make fuzz``
 runs thousands.

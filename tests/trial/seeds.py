@@ -22,6 +22,8 @@ AREA_OF_FORMAT = {
     "qtm": "marker readers", "c3d": "marker readers", "trc": "marker readers", "mot": "marker readers",
     "sto": "marker readers", "vicon": "marker readers", "mvnx": "marker readers",
     "imu": "IMU readers", "points": "IMU readers",
+    "mkp": "packets", "mkpoints": "packets", "mkc": "clip", "verify": "verify", "catalog": "catalog",
+    "batch": "batch",
 }
 
 #: formats where a missing sample is a convention of the format (an empty cell, NaN in a marker CSV):
@@ -44,7 +46,7 @@ class Seed:
     fmt: str
     path: Path  # the seed file in the work folder
     commands: list[list[str]]
-    companion: Path | None = None  # the ASF of an AMC, the AMC of an ASF
+    companion: Path | None = None  # the ASF of an AMC, the AMC of an ASF, the original of a compressed file
     load_options: dict = field(default_factory=dict)  # options of mocapkit.load for the digest
     binary: bool = False
     folder: bool = False  # a sensor folder (odd paths and kills only; not mutated)
@@ -78,6 +80,7 @@ def _imu(rate: list[str]) -> list[list[str]]:
         ["info", "{in}", "--json", *rate],
         ["compress", "{in}", "-t", "0.001", "-o", "{out}/p.csv", *rate],
         ["compress", "{in}", "--max-angle", "2", "--json", *rate],
+        ["compress", "{in}", "--max-angle", "2", "-o", "{out}/x.mkp", *rate],
         ["stream", "-t", "0.001", *rate, "<stdin>"],
     ]
 
@@ -106,7 +109,9 @@ def build_seeds(work: Path, run_cli=None) -> list[Seed]:
     seeds: list[Seed] = []
     for rel in ("bvh/walk-meredith-60.bvh", "bvh/perception-neuron-freya-12.bvh"):
         p = copy(rel)
-        seeds.append(Seed(p.stem, "bvh", p, _skeletal([]) + [["segment", "{in}", "-m", "pca", "--json"]]))
+        seeds.append(Seed(p.stem, "bvh", p, _skeletal([]) + [["segment", "{in}", "-m", "pca", "--json"]]
+                          + [["compress", "{in}", "--max-position-error", "1", "-o", "{out}/c.mkc"]]
+                          * (p.stem == "walk-meredith-60")))
     asf = copy("cmu/86.asf")
     amc = copy("cmu/86_01_first60.amc")
     amc_cmds = [["info", "{in}", "--asf", "{asf}", "--json"], ["convert", "{in}", "{out}/o.bvh", "--asf", "{asf}"],
@@ -145,6 +150,22 @@ def build_seeds(work: Path, run_cli=None) -> list[Seed]:
     return seeds
 
 
+def make_catalog(sd: Path, run_cli) -> Path | None:
+    """``sd/catalog.duckdb``: a small catalog (``catalog import`` of three tests/data files) for the
+    ``sql`` category."""
+    cat = sd / "catalog.duckdb"
+    if cat.exists():
+        cat.unlink()
+    files = [DATA / "bvh" / "walk-meredith-60.bvh", DATA / "xio" / "pelvis" / "Quaternion.csv",
+             DATA / "markers" / "juggling-qualisys-300hz-first120.tsv"]
+    r = run_cli(["catalog", "import", *files, "--db", cat], timeout=120)
+    return cat if r.returncode == 0 and cat.is_file() else None
+
+
+def _verify(bound: list[str]) -> list[str]:
+    return ["verify", "{orig}", "{in}", *bound, "--json"]
+
+
 def _generated(sd: Path, tsv: Path, run_cli) -> list[Seed]:
     out: list[Seed] = []
     c3d = sd / "juggling.c3d"
@@ -156,15 +177,42 @@ def _generated(sd: Path, tsv: Path, run_cli) -> list[Seed]:
         clip = sd / f"walk-clip{suffix}"
         r = run_cli(["compress", bvh, "-o", clip, "-t", "0.01"], timeout=120)
         if r.returncode == 0 and clip.is_file():
-            out.append(Seed(clip.name, suffix[1:], clip, [["decompress", "{in}", "-o", "{out}/d.bvh"]],
-                            binary=suffix == ".glb"))
+            out.append(Seed(clip.name, suffix[1:], clip, [["decompress", "{in}", "-o", "{out}/d.bvh"],
+                                                          _verify(["--max-position-error", "1"])],
+                            companion=bvh, binary=suffix == ".glb"))
     src = sd / "imu-pelvis-Quaternion.csv"
     pts = sd / "points.csv"
     r = run_cli(["compress", src, "-t", "0.001", "-o", pts], timeout=120)
     if r.returncode == 0 and pts.is_file():
         out.append(Seed(pts.name, "points", pts, [["decompress", "{in}", "-o", "{out}/d.csv", "--rate", "50"],
                                                   ["decompress", "{in}", "-o", "{out}/d2.csv", "--times-from",
-                                                   str(src)]]))
+                                                   "{orig}"], _verify(["--max-angle", "3"]), _verify([])],
+                        companion=src))
+        # the original mutated, the compressed file kept
+        out.append(Seed("verify-original-imu", "imu", src, [["verify", "{in}", "{orig}", "--max-angle", "2",
+                                                               "--json"]], companion=pts))
+    mkp = sd / "walk-imu.mkp"
+    r = run_cli(["compress", src, "--max-angle", "2", "-o", mkp], timeout=120)
+    if r.returncode == 0 and mkp.is_file():
+        out.append(Seed(mkp.name, "mkp", mkp, [["decompress", "{in}", "-o", "{out}/pts.csv"],
+                                               ["decompress", "{in}", "-o", "{out}/d.csv", "--times-from", "{orig}"],
+                                               ["decompress", "{in}", "-o", "{out}/d.csv", "--rate", "50"],
+                                               ["info", "{in}", "--json"], _verify(["--max-angle", "2"])],
+                        companion=src, binary=True))
+        ticks = sd / "mkp-points.csv"
+        r = run_cli(["decompress", mkp, "-o", ticks], timeout=120)
+        if r.returncode == 0 and ticks.is_file():
+            out.append(Seed(ticks.name, "mkpoints", ticks,
+                            [["decompress", "{in}", "-o", "{out}/d.csv", "--times-from", "{orig}"],
+                             _verify(["--max-angle", "2"])], companion=src))
+    make_catalog(sd, run_cli)
+    mkc = sd / "walk.mkc"
+    r = run_cli(["compress", bvh, "--max-position-error", "1", "-o", mkc], timeout=300)
+    if r.returncode == 0 and mkc.is_file():
+        out.append(Seed(mkc.name, "mkc", mkc, [["decompress", "{in}", "-o", "{out}/d.bvh"], ["info", "{in}", "--json"],
+                                               _verify(["--max-position-error", "1"])], companion=bvh, binary=True))
+        out.append(Seed("verify-original-bvh", "bvh", bvh, [["verify", "{in}", "{orig}", "--max-position-error", "1",
+                                                               "--json"]], companion=mkc))
     return out
 
 
@@ -177,7 +225,7 @@ def expand(argv: list[str], *, inp: Path, out: Path, companion: Path | None) -> 
             continue
         a = a.replace("{in}", str(inp)).replace("{out}", str(out))
         if companion is not None:
-            a = a.replace("{asf}", str(companion)).replace("{amc}", str(companion))
+            a = a.replace("{asf}", str(companion)).replace("{amc}", str(companion)).replace("{orig}", str(companion))
         res.append(a)
     return res, stdin
 

@@ -5,7 +5,7 @@ is a fresh interpreter: it imports mocapkit, compiles the commands' numba code o
 lists on its first request), then forks one child per request. Protocol: one JSON object per line on
 stdin, one JSON reply per line on stdout.
 
-Requests: ``{"op": "cli", "argv": [...], "stdin": path|null, "timeout": s, "kill_after": s|null}`` →
+Requests: ``{"op": "cli", "argv": [...], "stdin": path|null, "timeout": s, "kill_after": s|null, "cwd": path|null}`` →
 the :class:`~tests.trial.runner.Run` fields; ``{"op": "digest", "path", "fmt", "options"}`` → the
 :func:`~tests.trial.oracle.digest` record; ``{"op": "warm", "argvs": [[...]], "stdins": [...]}``.
 """
@@ -36,7 +36,8 @@ def serve() -> None:
         op = req["op"]
         if op == "cli":
             r = runner.run_cli(req["argv"], stdin=req.get("stdin"), timeout=req.get("timeout", 60),
-                               kill_after=req.get("kill_after"), mem=req.get("mem", runner.DEFAULT_MEM))
+                               kill_after=req.get("kill_after"), mem=req.get("mem", runner.DEFAULT_MEM),
+                               cwd=req.get("cwd"))
             rep = {"argv": r.argv, "returncode": r.returncode, "signal": r.signal, "timed_out": r.timed_out,
                    "seconds": r.seconds, "maxrss_mb": r.maxrss_mb, "extra": r.extra,
                    "stdout": base64.b64encode(r.stdout).decode(), "stderr": base64.b64encode(r.stderr).decode()}
@@ -68,11 +69,11 @@ class Client:
             raise RuntimeError("the trial server died")
         return json.loads(line)
 
-    def run(self, argv, *, stdin=None, timeout: float = 60, kill_after: float | None = None):
+    def run(self, argv, *, stdin=None, timeout: float = 60, kill_after: float | None = None, cwd=None):
         from .runner import Run
 
         rep = self._ask({"op": "cli", "argv": [str(a) for a in argv], "stdin": None if stdin is None else str(stdin),
-                         "timeout": timeout, "kill_after": kill_after})
+                         "timeout": timeout, "kill_after": kill_after, "cwd": None if cwd is None else str(cwd)})
         return Run(rep["argv"], rep["returncode"], rep["signal"], base64.b64decode(rep["stdout"]),
                    base64.b64decode(rep["stderr"]), rep["seconds"], rep["maxrss_mb"], rep["timed_out"], rep["extra"])
 

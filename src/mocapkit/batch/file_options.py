@@ -127,6 +127,8 @@ def _read_toml(path: Path) -> tuple[dict, str]:
         line = int(m.group(1)) if m else None
         msg = msg[:m.start()] if m else re.sub(r"\s*\(at end of document\)$", " at the end", msg)
         raise MocapFormatError(src, line, f"not valid TOML: {msg}") from None
+    except RecursionError:  # tomllib parses nested arrays and inline tables recursively
+        raise MocapFormatError(src, None, "not valid TOML: arrays or inline tables nested too deeply") from None
 
 
 def _key_line(text: str, table: int | None, key: str) -> int | None:

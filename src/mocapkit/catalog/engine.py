@@ -365,6 +365,8 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
         path = Path(_duckdb_path(url))
         if path.is_dir():
             raise MocapError(f"{shown}: is a folder, not a DuckDB catalog file")
+        if path.exists() and not path.is_file():  # opening a FIFO waits for a writer
+            raise MocapError(f"{shown}: not a regular file (a device, FIFO or socket), not a DuckDB catalog file")
         if not create and not path.exists():
             raise MocapError(f"{shown}: no such catalog file")
         if not path.parent.is_dir():
