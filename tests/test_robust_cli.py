@@ -691,3 +691,13 @@ def test_c3d_writer_errors_name_the_output(tmp_path):
     with pytest.raises(InvalidParameterError, match=r"gappy\.c3d: cannot be written as C3D: .*constant rate"):
         write_c3d(mk, out)
     assert not out.exists()
+
+
+@pytest.mark.parametrize("argv", [["info", ""], ["compress", "", "--max-angle", "1"], ["catalog", "query", "--db", "",
+                                                                                        "SELECT 1"]])
+def test_an_empty_argument_is_a_usage_error_not_the_current_folder(argv, capsys):
+    """``Path("")`` is ``.``: ``mocapkit info ''`` must not read the current folder."""
+    with pytest.raises(SystemExit) as e:
+        cli.main(argv)
+    assert e.value.code == 2
+    assert "an empty argument" in capsys.readouterr().err

@@ -818,6 +818,8 @@ def main(argv: list[str] | None = None) -> None:
     import warnings
 
     warnings.showwarning = _show_warning
+    if "" in (sys.argv[1:] if argv is None else list(argv)):  # Path("") would be the current folder
+        _fail("an empty argument: a file name or a value was expected (see mocapkit --help)", EXIT_INPUT)
     try:
         code = app(args=argv, prog_name="mocapkit", standalone_mode=False)
     except _ClickException as e:
