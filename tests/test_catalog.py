@@ -668,7 +668,8 @@ def test_cli_query_without_a_statement_is_refused(tmp_path, sql):
 def test_cli_query_refuses_writes_on_postgresql(tmp_path):
     with _pg_schema() as url:
         with _open(url) as c:
-            c.execute("INSERT INTO recordings (path, content_hash, kind) VALUES ('a', 'b', 'markers')")
+            c.execute("INSERT INTO recordings (path, content_hash, reading_hash, kind) "
+                      "VALUES ('a', 'b', 'h', 'markers')")
         for sql in ["DELETE FROM recordings", "CREATE TABLE x (a INT)", "SELECT 1; DELETE FROM recordings",
                     "WITH d AS (DELETE FROM recordings RETURNING 1) SELECT * FROM d",
                     "COPY recordings TO STDOUT", "SET default_transaction_read_only = off",
