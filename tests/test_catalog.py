@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-from mocapkit import cli
+from cli_run import run as cli_run
 from mocapkit.errors import MocapError
 
 pytest.importorskip("duckdb")
@@ -427,18 +427,6 @@ def test_locked_duckdb_file(tmp_path):
 # ---------------------------------------------------------------------------------------------------
 # import and the command line
 # ---------------------------------------------------------------------------------------------------
-
-
-def cli_run(*args) -> tuple[int, str, str]:
-    out, errs = io.StringIO(), io.StringIO()
-    code = None
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(errs):
-            cli.main([str(a) for a in args])
-    except SystemExit as e:
-        code = e.code if isinstance(e.code, int) else (0 if e.code is None else 1)
-    assert code is not None
-    return code, out.getvalue(), errs.getvalue()
 
 
 def _import_folder(root: Path, tests_data: Path) -> None:

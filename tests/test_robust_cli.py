@@ -693,10 +693,11 @@ def test_c3d_writer_errors_name_the_output(tmp_path):
     assert not out.exists()
 
 
-@pytest.mark.parametrize("argv", [["info", ""], ["compress", "", "--max-angle", "1"], ["catalog", "query", "--db", "",
-                                                                                        "SELECT 1"]])
+@pytest.mark.parametrize("argv", [["info", ""], ["compress", "", "--max-angle", "1"], ["info", "--json", ""],
+                                  ["decompress", "x.mkp", "-o", "out.csv", ""]])
 def test_an_empty_argument_is_a_usage_error_not_the_current_folder(argv, capsys):
-    """``Path("")`` is ``.``: ``mocapkit info ''`` must not read the current folder."""
+    """``Path("")`` is ``.``: ``mocapkit info ''`` must not read the current folder (an option's value may be
+    empty: ``filter-eval --sizes ''``)."""
     with pytest.raises(SystemExit) as e:
         cli.main(argv)
     assert e.value.code == 2

@@ -808,6 +808,29 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 
 
+def _empty_positional(args: list[str]) -> list[str] | None:
+    """The command words when a positional argument is empty (``Path("")`` would be the current folder),
+    else ``None``. An option's value may be empty (``filter-eval --sizes ''`` means none): the command's
+    options that take a value are looked up, so ``info --json ''`` is caught and ``--sizes ''`` is not."""
+    if "" not in args:
+        return None
+    cmd, words, i = typer.main.get_command(app), [], 0
+    while i < len(args) and args[i] in getattr(cmd, "commands", {}):
+        cmd = cmd.commands[args[i]]
+        words.append(args[i])
+        i += 1
+    takes_value = {o for p in cmd.params if getattr(p, "opts", None) and not getattr(p, "is_flag", False)
+                   and not getattr(p, "count", False) and p.param_type_name == "option"
+                   for o in (*p.opts, *p.secondary_opts)}
+    while i < len(args):
+        if args[i] == "--":
+            return words if "" in args[i + 1:] else None
+        if args[i] == "":
+            return words
+        i += 2 if args[i] in takes_value else 1
+    return None
+
+
 def main(argv: list[str] | None = None) -> None:
     """The ``mocapkit`` entry point: every failure is one line ``error: ...`` on stderr.
 
@@ -818,8 +841,11 @@ def main(argv: list[str] | None = None) -> None:
     import warnings
 
     warnings.showwarning = _show_warning
-    if "" in (sys.argv[1:] if argv is None else list(argv)):  # Path("") would be the current folder
-        _fail("an empty argument: a file name or a value was expected (see mocapkit --help)", EXIT_INPUT)
+    args = sys.argv[1:] if argv is None else [str(a) for a in argv]
+    words = _empty_positional(args)
+    if words is not None:
+        _fail(f"an empty argument: a file name or a value was expected (see mocapkit {' '.join([*words, '--help'])})",
+              EXIT_INPUT)
     try:
         code = app(args=argv, prog_name="mocapkit", standalone_mode=False)
     except _ClickException as e:
