@@ -14,11 +14,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.c3d import check_c3d_structure, read_c3d, write_c3d
-from mocapkit.io.qtm import read_qtm_tsv, read_qtm_tsv_text
+from mocapkit.io.markers.c3d import check_c3d_structure, read_c3d, write_c3d
+from mocapkit.io.markers.qtm import read_qtm_tsv, read_qtm_tsv_text
 from mocapkit.io.loaders import kind_of, load_markers, write_markers
-from mocapkit.io.marker_csv import read_markers_csv, write_markers_csv
-from mocapkit.io.vicon_csv import read_vicon_csv
+from mocapkit.io.markers.wide_csv import read_markers_csv, write_markers_csv
+from mocapkit.io.markers.vicon_csv import read_vicon_csv
 from mocapkit.markers import Markers, make_unique_labels
 
 ezc3d = pytest.importorskip("ezc3d")
@@ -113,9 +113,9 @@ def test_import_walk_sees_lazy_and_relative_imports():
     assert _mocapkit_imports(ast.parse(src), "mocapkit.markers", known) == {
         "mocapkit.errors", "mocapkit.io", "mocapkit.io.loaders", "mocapkit.io.atomic"}
     graph = _import_graph()
-    assert "mocapkit.markers" in graph["mocapkit.io.c3d"]  # module level
-    assert "mocapkit.io.marker_csv" in graph["mocapkit.io.loaders"]  # inside load_markers/write_markers
-    assert "mocapkit.io.atomic" in graph["mocapkit.io.marker_csv"]
+    assert "mocapkit.markers" in graph["mocapkit.io.markers.c3d"]  # module level
+    assert "mocapkit.io.markers.wide_csv" in graph["mocapkit.io.loaders"]  # inside load_markers/write_markers
+    assert "mocapkit.io.atomic" in graph["mocapkit.io.markers.wide_csv"]
 
 
 def test_model_modules_import_no_io_at_all():
@@ -919,7 +919,7 @@ def _umask() -> int:
 
 def test_write_c3d_without_analog_and_its_rejections(tmp_path):
     from mocapkit.errors import InvalidParameterError
-    from mocapkit.io.c3d import write_c3d
+    from mocapkit.io.markers.c3d import write_c3d
 
     bad_an = {"labels": ("a",), "rate": 250.0, "values": np.zeros((75, 1))}  # 250/120 is no integer
     mk = _random_markers(n=30, m=3, analog=bad_an)

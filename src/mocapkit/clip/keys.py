@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError
-from mocapkit.io.mkc_codec import residual_cost
+from mocapkit.clip.codec import residual_cost
 
 
 @numba.njit(cache=True)

@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError
-from mocapkit.io.mkc import BOUND_METRICS
+from mocapkit.clip.container import BOUND_METRICS
 from mocapkit.skeleton import Motion, forward_kinematics
 
 METRICS = BOUND_METRICS  # ("joint+end", "joint", "shell"): what a clip's header may name
