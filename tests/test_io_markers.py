@@ -12,6 +12,9 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from import_graph import import_graph as _import_graph
+from import_graph import mocapkit_imports as _mocapkit_imports
+from import_graph import reachable as _reachable
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.markers.c3d import check_c3d_structure, read_c3d, write_c3d
@@ -42,59 +45,6 @@ def _markers(n=4, labels=("a", "b"), rate=100.0, **kw) -> Markers:
 
 
 MODEL_MODULES = ("mocapkit.motion", "mocapkit.skeleton", "mocapkit.markers", "mocapkit.quat", "mocapkit.errors")
-
-
-def _mocapkit_imports(tree, module: str, known: set[str]) -> set[str]:
-    """The ``known`` modules that a parsed source file imports anywhere (function bodies, ``if`` blocks,
-    ``TYPE_CHECKING`` blocks too): ``import a.b``, ``from a import b`` (``a.b`` when it is a module,
-    else ``a``), relative imports resolved against ``module``."""
-    import ast
-
-    package = module.rsplit(".", 1)[0]
-    found: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names = [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                parts = package.split(".")
-                parts = parts[: len(parts) - (node.level - 1)]
-                base = ".".join(parts + ([base] if base else []))
-            names = [base] + [f"{base}.{a.name}" for a in node.names]
-        else:
-            continue
-        found.update(n for n in names if n in known)
-    return found
-
-
-def _import_graph() -> dict[str, set[str]]:
-    """``{module: modules it imports anywhere}`` over every module of the mocapkit package."""
-    import ast
-
-    import mocapkit
-
-    root = Path(mocapkit.__file__).parent
-    files = {}
-    for f in sorted(root.rglob("*.py")):
-        parts = ("mocapkit",) + f.relative_to(root).with_suffix("").parts
-        files[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = f
-    known = set(files)
-    graph = {}
-    for name, f in files.items():
-        mod = name if f.name != "__init__.py" else name + ".__init__"
-        graph[name] = _mocapkit_imports(ast.parse(f.read_text()), mod, known) - {name}
-    return graph
-
-
-def _reachable(graph: dict[str, set[str]], start: str) -> set[str]:
-    seen, todo = set(), [start]
-    while todo:
-        for nxt in graph.get(todo.pop(), ()):
-            if nxt not in seen:
-                seen.add(nxt)
-                todo.append(nxt)
-    return seen
 
 
 def _is_io(name: str) -> bool:
