@@ -17,9 +17,9 @@ from scipy.spatial.transform import Rotation
 
 from mocapkit import cli
 from mocapkit.clip import Clip, encode_clip
-from mocapkit.jobs.readers import open_clip
 from mocapkit.clip.budget import track_tolerances
 from mocapkit.io.loaders import load_motion, unit_cm
+from mocapkit.jobs.readers import open_clip
 from mocapkit.skeleton import Motion, Skeleton, forward_kinematics
 
 TESTS_FILES = [("bvh/walk-meredith-60.bvh", None, 2.54), ("bvh/perception-neuron-freya-12.bvh", None, None),

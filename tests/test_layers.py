@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from import_graph import (
     LAYERS,
-    io_violations,
     import_graph,
+    io_violations,
     layer_of,
     layer_violations,
     names_from_root,

@@ -33,8 +33,8 @@ from scipy.spatial.transform import Rotation, Slerp
 from mocapkit import cli
 from mocapkit.errors import MocapFormatError
 from mocapkit.io import load_signals, read_imu_csv
-from mocapkit.pla.packet_layout import MAGIC, VERSION
 from mocapkit.jobs.readers import read_mkp
+from mocapkit.pla.packet_layout import MAGIC, VERSION
 
 DATA = Path(__file__).resolve().parent / "data"
 

@@ -24,8 +24,8 @@ from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io.imu.lines import CHUNK_BYTES, MAX_LINE_BYTES
 from mocapkit.io.imu.rows import MIN_STEP
 from mocapkit.io.imu.signals import read_imu_csv, read_imu_file, read_imu_text
-from mocapkit.io.text.numbers import MAX_ABS
 from mocapkit.io.imu.stream import iter_samples
+from mocapkit.io.text.numbers import MAX_ABS
 
 IMU = Path(__file__).resolve().parent / "data" / "imu"
 H = "Timestamp (us),W,X,Y,Z\n"

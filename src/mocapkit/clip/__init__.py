@@ -6,8 +6,8 @@ shell metric), keyframes on quantisation grids, entropy-coded blocks with random
 reads a ``.mkc`` file (:mod:`mocapkit.io.formats.mkc`) and decodes it.
 """
 
+from mocapkit.clip.decoder import Clip
 from mocapkit.clip.encoder import DEFAULT_BLOCK_FRAMES, EncodedClip, encode_clip
 from mocapkit.clip.metric import DEFAULT_SHELL_CM, METRICS, position_errors
-from mocapkit.clip.decoder import Clip
 
 __all__ = ["DEFAULT_BLOCK_FRAMES", "DEFAULT_SHELL_CM", "METRICS", "Clip", "EncodedClip", "encode_clip", "position_errors"]

@@ -18,9 +18,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numba
 import numpy as np
 
-from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.clip.container import BOUND_METRICS, ClipFile
 from mocapkit.clip.codec import entropy_decode, steps_table, unpack_block, unpack_pose
+from mocapkit.clip.container import BOUND_METRICS, ClipFile
+from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.rotvec import exp_into
 from mocapkit.skeleton import MAX_JOINT_FRAMES, POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 

@@ -19,8 +19,8 @@ import math
 import numba
 import numpy as np
 
-from mocapkit.errors import InvalidParameterError
 from mocapkit.clip.codec import residual_cost
+from mocapkit.errors import InvalidParameterError
 
 
 @numba.njit(cache=True)

@@ -18,8 +18,8 @@ import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.text.numbers import parse_number
 from mocapkit.io.text.input import check_cells_budget, final_line_verdict, read_input, report_final_line
+from mocapkit.io.text.numbers import parse_number
 from mocapkit.markers import Markers
 
 __all__ = ["marker_csv_header", "read_markers_csv", "write_markers_csv"]

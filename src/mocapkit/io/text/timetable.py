@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.text.numbers import NUMBER_RE, parse_number
 from mocapkit.io.text.input import (
     MAX_HEADER_LINE,
     check_cells_budget,
@@ -34,6 +33,7 @@ from mocapkit.io.text.input import (
     read_input,
     report_final_line,
 )
+from mocapkit.io.text.numbers import NUMBER_RE, parse_number
 
 __all__ = ["TimeTable", "read_time_table"]
 
