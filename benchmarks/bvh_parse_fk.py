@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mocapkit.io.bvh import read_bvh
+from mocapkit.io.skeletal.bvh import read_bvh
 from mocapkit.skeleton import forward_kinematics
 
 try:

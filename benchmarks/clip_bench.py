@@ -57,7 +57,7 @@ def main(argv=None) -> None:
         sys.exit(f"needs the shared recordings at {DATA}")
     from mocapkit.clip import Clip, encode_clip
     from mocapkit.io.loaders import load_motion, unit_cm
-    import mocapkit.io.mkc_reader as reader
+    import mocapkit.clip.decoder as reader
     from mocapkit.pla.skeletal import compress_motion
 
     def load(name, asf, u):

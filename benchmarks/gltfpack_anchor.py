@@ -40,7 +40,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from mocapkit.io.gltf import read_gltf, write_gltf
+from mocapkit.io.formats.gltf import read_gltf, write_gltf
 from mocapkit.io.loaders import load_motion, unit_cm
 from mocapkit.jobs import compress_job
 from mocapkit.jobs.gltf_out import every_frame

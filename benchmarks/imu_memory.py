@@ -49,7 +49,7 @@ def status_mb(key):
                 return int(line.split()[1]) / 1024
     raise SystemExit("no /proc/self/status: Linux only")
 from mocapkit.io import read_imu_file
-import mocapkit.io.imucsv, scipy.spatial.transform  # everything the read needs is imported
+import mocapkit.io.imu.signals, scipy.spatial.transform  # everything the read needs is imported
 base = status_mb("VmRSS")
 t0 = time.perf_counter()
 sigs = read_imu_file(sys.argv[1])

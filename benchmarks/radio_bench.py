@@ -43,7 +43,8 @@ def recordings():
 
 
 def measure(sig, deg, bits, packet_bytes):
-    from mocapkit.io.mkp import Header, Sensor, mkp_bytes, read_mkp
+    from mocapkit.pla.packet_layout import Header, Sensor, mkp_bytes
+    from mocapkit.jobs.readers import read_mkp
     from mocapkit.jobs.packets import decode_at
     from mocapkit.pla.packets import packetise
     from mocapkit.quat import angular_distance
@@ -58,7 +59,7 @@ def measure(sig, deg, bits, packet_bytes):
 
 
 def main() -> int:
-    from mocapkit.io.mkp import delta_bound
+    from mocapkit.pla.packet_layout import delta_bound
     from mocapkit.pla.packets import DEFAULT_FRACTION, default_bits
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

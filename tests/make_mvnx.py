@@ -90,7 +90,7 @@ def build(asf_path, amc_path, stride: int = 1, first: int = 0, count: int | None
           seed: int = 0) -> dict:
     """The MVN arrays of a CMU take: labels, parents, points, globals ``(N, 23, 4)`` (scalar first),
     positions ``(N, 23, 3)`` and the rest (identity-pose) positions."""
-    from mocapkit.io.amc import read_amc, read_asf
+    from mocapkit.io.skeletal.amc import read_amc, read_asf
     from mocapkit.quat import to_scipy
 
     sk = read_asf(asf_path)

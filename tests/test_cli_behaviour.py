@@ -17,8 +17,8 @@ import pytest
 
 import mocapkit
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.bvh import read_bvh
-from mocapkit.io.gltf import read_gltf, write_gltf
+from mocapkit.io.formats.gltf import read_gltf, write_gltf
+from mocapkit.io.skeletal.bvh import read_bvh
 from mocapkit.pla.skeletal import compress_motion
 from mocapkit.skeleton import forward_kinematics
 

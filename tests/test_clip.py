@@ -17,12 +17,13 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from mocapkit.clip import Clip, encode_clip, position_errors
+from mocapkit.jobs.readers import open_clip
 from mocapkit.clip.keys import corridor_keys
 from mocapkit.clip.metric import worst_errors
 from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io.loaders import load_motion, unit_cm
-from mocapkit.io.mkc import mkc_bytes
-from mocapkit.io.mkc_codec import entropy_decode, level_step, pack_block, steps_table, unpack_block, unpack_pose
+from mocapkit.clip.container import mkc_bytes
+from mocapkit.clip.codec import entropy_decode, level_step, pack_block, steps_table, unpack_block, unpack_pose
 from mocapkit.rotvec import exp_map, log_map
 from mocapkit.skeleton import Motion, forward_kinematics
 
@@ -251,7 +252,7 @@ def test_block_payload_round_trips_keys_exactly(n, T, seed):
         ref = _interp(f, q, level_step(bases[t], lv), n) if n > 1 else q * level_step(bases[t], lv)
         np.testing.assert_allclose(vals[:, 3 * t:3 * t + 3], ref, rtol=1e-12, atol=1e-12 * np.abs(ref).max(initial=1))
     # the entropy stage is lossless and refuses a wrong length
-    from mocapkit.io.mkc_codec import entropy_encode
+    from mocapkit.clip.codec import entropy_encode
 
     coded = entropy_encode(payload)
     assert entropy_decode(coded, len(payload), "x") == payload
@@ -341,7 +342,7 @@ def test_pose_at_decodes_one_block_and_matches_the_full_decode(amc, monkeypatch)
     enc = encode_clip(m, 0.2 / u, shell_distance=3 / u, block_frames=10)
     full = Clip("c.mkc", data=enc.data).decode()
     clip = Clip("c.mkc", data=enc.data)
-    import mocapkit.io.mkc_reader as reader
+    import mocapkit.clip.decoder as reader
 
     calls = []
     real = reader.entropy_decode
@@ -377,7 +378,7 @@ def test_pose_decoder_gives_exactly_the_values_decoder_then_exp(amc):
 
 
 def test_the_committed_version_1_clip_still_decodes_within_its_bound(tests_data, walk):
-    clip = Clip(tests_data / "clip" / "walk-meredith-60.mkc")
+    clip = open_clip(tests_data / "clip" / "walk-meredith-60.mkc")
     assert clip.header["bound"]["metric"] == "shell" and clip.unit_cm == 2.54
     b = clip.header["bound"]
     je, se = naive_errors(walk, clip.decode(), b["shell_distance"])
@@ -500,7 +501,7 @@ def test_cli_compress_info_decompress(tests_data, tmp_path):
     back = load_motion(tmp_path / "back.bvh")
     je2, _ = naive_errors(m, back, 1.0)
     assert je2.max() <= 0.05 / 2.54 + 1e-5  # 6 decimals of BVH
-    from mocapkit.io.gltf import read_gltf
+    from mocapkit.io.formats.gltf import read_gltf
 
     g = read_gltf(tmp_path / "back.glb")
     assert g.n_frames == m.n_frames
@@ -514,7 +515,7 @@ def test_cli_entropy_stage_is_chosen_and_named_in_the_file(tests_data, tmp_path)
         r = run("compress", src, "--asf", tests_data / "cmu" / "86.asf", "-o", out, "--max-position-error", "0.01",
                 "--entropy", entropy, "--block-frames", "30")
         assert r.returncode == 0, r.stderr
-        clip = Clip(out)
+        clip = open_clip(out)
         assert {clip.file.block(i)[0] for i in range(len(clip.file.blocks))} <= {0, codec}
         sizes[entropy] = out.stat().st_size
         clip.decode()

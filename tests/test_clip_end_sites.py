@@ -19,6 +19,7 @@ from mocapkit import cli
 from mocapkit.clip import Clip, encode_clip
 from mocapkit.clip.budget import track_tolerances
 from mocapkit.io.loaders import load_motion, unit_cm
+from mocapkit.jobs.readers import open_clip
 from mocapkit.skeleton import Motion, Skeleton, forward_kinematics
 
 TESTS_FILES = [("bvh/walk-meredith-60.bvh", None, 2.54), ("bvh/perception-neuron-freya-12.bvh", None, None),
@@ -142,7 +143,7 @@ def test_end_sites_within_the_bound_on_random_chains(lengths, tips, n, seed, bou
 def test_compress_bounds_end_sites_by_default_in_clips_and_gltf(tests_data, tmp_path):
     """``compress --max-position-error 0.1`` with no --error-metric: End Sites of the written .mkc and
     .glb decoded from disk are within 0.1 cm; --error-metric joint is still the joints-only bound."""
-    from mocapkit.io.gltf import read_gltf
+    from mocapkit.io.formats.gltf import read_gltf
 
     src = tests_data / "bvh" / "walk-meredith-60.bvh"
     m = load_motion(src)
@@ -160,7 +161,7 @@ def test_compress_bounds_end_sites_by_default_in_clips_and_gltf(tests_data, tmp_
     out = tmp_path / "j.mkc"
     rec = _cli_json("compress", src, "-o", out, "--max-position-error", "0.1", "--unit-cm", "2.54",
                     "--error-metric", "joint", "--json")
-    assert rec["error_metric"] == "joint" and Clip(out).header["bound"]["metric"] == "joint"
+    assert rec["error_metric"] == "joint" and open_clip(out).header["bound"]["metric"] == "joint"
     assert joint_error(m, load_motion(out)) <= 0.1 / 2.54 * (1 + 1e-9)
 
 
@@ -179,7 +180,7 @@ def test_end_sites_within_the_bound_on_every_shared_skeletal_file(shared_data, n
 def test_gltf_output_bounds_end_sites_by_default(tests_data, tmp_path, name, asf, u):
     """``compress -o X.glb --max-position-error 0.1``: End Sites of the file read back within 0.1 cm (with
     the joints only, the ASF skeleton's End Sites moved 0.196 cm)."""
-    from mocapkit.io.gltf import read_gltf
+    from mocapkit.io.formats.gltf import read_gltf
     from mocapkit.jobs import compress_job
 
     out = tmp_path / "x.glb"

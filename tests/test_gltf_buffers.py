@@ -16,7 +16,7 @@ import pytest
 
 from mocapkit import cli
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.gltf import read_gltf, write_gltf
+from mocapkit.io.formats.gltf import read_gltf, write_gltf
 from mocapkit.io.loaders import load_motion
 from mocapkit.jobs.gltf_out import every_frame
 

@@ -1,4 +1,4 @@
-"""Acclaim ASF/AMC reader (mocapkit.io.amc): hand-computed poses, an independent CMU-style forward
+"""Acclaim ASF/AMC reader (mocapkit.io.skeletal.amc): hand-computed poses, an independent CMU-style forward
 kinematics on real CMU data, line-end variants, rejections and a mutation fuzz test."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError
-from mocapkit.io.amc import (
+from mocapkit.io.skeletal.amc import (
     JOINT_CHANNELS,
     ROOT_CHANNELS,
     load_amc_for_cli,
@@ -741,7 +741,7 @@ def test_cli_bvh_to_amc_refuses_a_real_loss(tmp_path: Path) -> None:
     import subprocess
     import sys
 
-    from mocapkit.io.bvh import write_bvh
+    from mocapkit.io.skeletal.bvh import write_bvh
 
     sk = read_asf(ASF86)
     m = read_amc(AMC86, sk)

@@ -1,4 +1,4 @@
-"""Tests of mocapkit.io.imucsv: IMU quaternion readers, sensor folders, writer."""
+"""Tests of mocapkit.io.imu.signals: IMU quaternion readers, sensor folders, writer."""
 
 from __future__ import annotations
 
@@ -529,7 +529,7 @@ def test_load_signals_file_and_registry(tests_data: Path, tmp_path: Path, monkey
         calls.append((path, rate))
         return {"root": Signal([0.0], [[1.0, 0, 0, 0]], name="root")}
 
-    monkeypatch.setattr("mocapkit.io.imucsv.READERS", dict(READERS))
+    monkeypatch.setattr("mocapkit.io.imu.signals.READERS", dict(READERS))
     register_reader("BVH", fake)
     bvh = _write(tmp_path / "walk.bvh", "HIERARCHY\n")
     assert list(load_signals(bvh, rate=None)) == ["root"]
@@ -677,7 +677,7 @@ def test_mutated_files_fail_only_with_format_error(fuzz_dir: Path, case: tuple[b
     data, rate = case
     path = fuzz_dir / "m.csv"
     path.write_bytes(data)
-    from mocapkit.io.streamcsv import iter_samples
+    from mocapkit.io.imu.stream import iter_samples
 
     for reader in (lambda: list(read_imu_file(path, rate=rate).values()),
                    lambda: [read_imu_text(data.decode("latin-1"), "<stdin>", rate=rate)],
@@ -1004,7 +1004,7 @@ def test_cli_override_flags(tmp_path: Path) -> None:
 
 
 def test_stream_uses_the_same_header_detection() -> None:
-    from mocapkit.io.streamcsv import iter_samples
+    from mocapkit.io.imu.stream import iter_samples
 
     for path, kw in ((IMU / "xio" / "ximu3_Quaternion.csv", {}),
                      (IMU / "xsens-mtmanager" / "MT46_trailing_tab.txt", {}),
@@ -1076,7 +1076,7 @@ def test_ios_sensorlog_rows_starting_with_a_date_are_data() -> None:
     assert np.array_equal(sig.values, want)
     msg = str(_error(path))
     assert "--rate" in msg and "--time-column" in msg
-    from mocapkit.io.streamcsv import iter_samples
+    from mocapkit.io.imu.stream import iter_samples
 
     with open(path, newline="") as fh:
         got = list(iter_samples(fh, str(path), time_column=column))
@@ -1092,7 +1092,7 @@ def test_date_first_column_keeps_every_row(tmp_path: Path, n: int) -> None:
     assert sig.times.tolist() == [0.5 + i / 4 for i in range(n)]
     assert sig.values.tolist() == [[i % 2, (i + 1) % 2, 0, 0] for i in range(n)]
     assert sig.meta["warnings"] == []
-    from mocapkit.io.streamcsv import iter_samples
+    from mocapkit.io.imu.stream import iter_samples
 
     got = list(iter_samples(p.read_text().splitlines(), str(p)))
     assert [t for _, t, _ in got] == sig.times.tolist()
@@ -1153,7 +1153,7 @@ def test_stream_memory_is_constant(header: str, row: str) -> None:
     what one list entry per row would take (line numbers and times or counters: >= 60 B a row, 3.6 MB)."""
     import tracemalloc
 
-    from mocapkit.io.streamcsv import iter_samples
+    from mocapkit.io.imu.stream import iter_samples
 
     n = 60_000
     rate = 100.0 if header.startswith("Frame") else None
@@ -1179,7 +1179,7 @@ def test_stream_memory_is_constant(header: str, row: str) -> None:
 def test_stream_without_header_stops_buffering() -> None:
     """Text lines without any orientation header: the stream reports the missing header after at
     most MAX_HEAD_LINES lines instead of buffering the whole input."""
-    from mocapkit.io.streamcsv import MAX_HEAD_LINES, iter_samples
+    from mocapkit.io.imu.stream import MAX_HEAD_LINES, iter_samples
 
     read = []
 

@@ -12,13 +12,16 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from import_graph import import_graph as _import_graph
+from import_graph import mocapkit_imports as _mocapkit_imports
+from import_graph import reachable as _reachable
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.c3d import check_c3d_structure, read_c3d, write_c3d
-from mocapkit.io.qtm import read_qtm_tsv, read_qtm_tsv_text
+from mocapkit.io.markers.c3d import check_c3d_structure, read_c3d, write_c3d
+from mocapkit.io.markers.qtm import read_qtm_tsv, read_qtm_tsv_text
 from mocapkit.io.loaders import kind_of, load_markers, write_markers
-from mocapkit.io.marker_csv import read_markers_csv, write_markers_csv
-from mocapkit.io.vicon_csv import read_vicon_csv
+from mocapkit.io.markers.wide_csv import read_markers_csv, write_markers_csv
+from mocapkit.io.markers.vicon_csv import read_vicon_csv
 from mocapkit.markers import Markers, make_unique_labels
 
 ezc3d = pytest.importorskip("ezc3d")
@@ -44,59 +47,6 @@ def _markers(n=4, labels=("a", "b"), rate=100.0, **kw) -> Markers:
 MODEL_MODULES = ("mocapkit.motion", "mocapkit.skeleton", "mocapkit.markers", "mocapkit.quat", "mocapkit.errors")
 
 
-def _mocapkit_imports(tree, module: str, known: set[str]) -> set[str]:
-    """The ``known`` modules that a parsed source file imports anywhere (function bodies, ``if`` blocks,
-    ``TYPE_CHECKING`` blocks too): ``import a.b``, ``from a import b`` (``a.b`` when it is a module,
-    else ``a``), relative imports resolved against ``module``."""
-    import ast
-
-    package = module.rsplit(".", 1)[0]
-    found: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            names = [a.name for a in node.names]
-        elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                parts = package.split(".")
-                parts = parts[: len(parts) - (node.level - 1)]
-                base = ".".join(parts + ([base] if base else []))
-            names = [base] + [f"{base}.{a.name}" for a in node.names]
-        else:
-            continue
-        found.update(n for n in names if n in known)
-    return found
-
-
-def _import_graph() -> dict[str, set[str]]:
-    """``{module: modules it imports anywhere}`` over every module of the mocapkit package."""
-    import ast
-
-    import mocapkit
-
-    root = Path(mocapkit.__file__).parent
-    files = {}
-    for f in sorted(root.rglob("*.py")):
-        parts = ("mocapkit",) + f.relative_to(root).with_suffix("").parts
-        files[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = f
-    known = set(files)
-    graph = {}
-    for name, f in files.items():
-        mod = name if f.name != "__init__.py" else name + ".__init__"
-        graph[name] = _mocapkit_imports(ast.parse(f.read_text()), mod, known) - {name}
-    return graph
-
-
-def _reachable(graph: dict[str, set[str]], start: str) -> set[str]:
-    seen, todo = set(), [start]
-    while todo:
-        for nxt in graph.get(todo.pop(), ()):
-            if nxt not in seen:
-                seen.add(nxt)
-                todo.append(nxt)
-    return seen
-
-
 def _is_io(name: str) -> bool:
     return name == "mocapkit.io" or name.startswith("mocapkit.io.")
 
@@ -113,9 +63,9 @@ def test_import_walk_sees_lazy_and_relative_imports():
     assert _mocapkit_imports(ast.parse(src), "mocapkit.markers", known) == {
         "mocapkit.errors", "mocapkit.io", "mocapkit.io.loaders", "mocapkit.io.atomic"}
     graph = _import_graph()
-    assert "mocapkit.markers" in graph["mocapkit.io.c3d"]  # module level
-    assert "mocapkit.io.marker_csv" in graph["mocapkit.io.loaders"]  # inside load_markers/write_markers
-    assert "mocapkit.io.atomic" in graph["mocapkit.io.marker_csv"]
+    assert "mocapkit.markers" in graph["mocapkit.io.markers.c3d"]  # module level
+    assert "mocapkit.io.markers.wide_csv" in graph["mocapkit.io.loaders"]  # inside load_markers/write_markers
+    assert "mocapkit.io.atomic" in graph["mocapkit.io.markers.wide_csv"]
 
 
 def test_model_modules_import_no_io_at_all():
@@ -919,7 +869,7 @@ def _umask() -> int:
 
 def test_write_c3d_without_analog_and_its_rejections(tmp_path):
     from mocapkit.errors import InvalidParameterError
-    from mocapkit.io.c3d import write_c3d
+    from mocapkit.io.markers.c3d import write_c3d
 
     bad_an = {"labels": ("a",), "rate": 250.0, "values": np.zeros((75, 1))}  # 250/120 is no integer
     mk = _random_markers(n=30, m=3, analog=bad_an)

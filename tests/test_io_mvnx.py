@@ -1,4 +1,4 @@
-"""Xsens MVNX reader (mocapkit.io.mvnx): the excerpt's frames, labels and rate, forward kinematics
+"""Xsens MVNX reader (mocapkit.io.skeletal.mvnx): the excerpt's frames, labels and rate, forward kinematics
 against the file's own segment positions (parsed independently with ElementTree), soft-body files,
 times, malformed files and the command line (info, convert, compress, segment)."""
 
@@ -20,9 +20,9 @@ from scipy.spatial.transform import Rotation
 
 import make_mvnx
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.bvh import read_bvh
+from mocapkit.io.skeletal.bvh import read_bvh
 from mocapkit.io.loaders import kind_of, load_motion
-from mocapkit.io.mvnx import ROOT_CHANNELS, read_mvnx
+from mocapkit.io.skeletal.mvnx import ROOT_CHANNELS, read_mvnx
 from mocapkit.skeleton import forward_kinematics
 
 DATA = Path(__file__).resolve().parent / "data"

@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 
 from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io.loaders import kind_of, load_markers
-from mocapkit.io.marker_csv import write_markers_csv
-from mocapkit.io.opensim import (
+from mocapkit.io.markers.wide_csv import write_markers_csv
+from mocapkit.io.markers.opensim import (
     read_opensim_signals,
     read_orientations,
     read_table,

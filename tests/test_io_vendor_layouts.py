@@ -14,7 +14,7 @@ import pytest
 
 from mocapkit.errors import MocapFormatError
 from mocapkit.io import load_markers, load_signals, read_sensor_folder
-from mocapkit.io.opensim import read_trc
+from mocapkit.io.markers.opensim import read_trc
 from test_robust_cli import assert_one_line_error, cli_run
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -260,7 +260,7 @@ from hypothesis import strategies as st  # noqa: E402
 def test_property_trc_resaved_as_csv_reads_the_same(tmp_path, n, m, seed, quoting, pad, gap):
     """A TRC written by mocapkit (tabs) and saved again as CSV by any quoting rule, rows padded with
     commas, reads to the same markers (gaps included)."""
-    from mocapkit.io.opensim import write_trc
+    from mocapkit.io.markers.opensim import write_trc
     from mocapkit.markers import Markers
 
     rng = np.random.default_rng(seed)

@@ -138,7 +138,7 @@ def test_batch_output_places_and_writes(files, tmp_path):
 
 
 def test_segments_cover_the_take_with_majority_labels(files):
-    from mocapkit.io.labels import read_reference
+    from mocapkit.io.skeletal.labels import read_reference
 
     ref = read_reference(files["labels"], 200, 15.0)
     rng = np.random.default_rng(3)

@@ -9,10 +9,10 @@ import json
 import pytest
 
 from mocapkit.clip import Clip, encode_clip
+from mocapkit.clip.container import mkc_bytes
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.bvh import read_bvh, write_bvh
 from mocapkit.io.loaders import load_motion
-from mocapkit.io.mkc import mkc_bytes
+from mocapkit.io.skeletal.bvh import read_bvh, write_bvh
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""The radio packet format (c/mkpla/mkp.c encoder, mocapkit.io.mkp decoder, docs/mkp.md).
+"""The radio packet format (c/mkpla/mkp.c encoder, mocapkit.pla.packet_layout decoder, docs/mkp.md).
 
 - The smallest-three quantiser: C codes = a NumPy quantiser, each kept component on its nearest
   level; C dequantisation = Python's bit for bit; the bound delta(B) holds against brute force on
@@ -31,7 +31,17 @@ from scipy.spatial.transform import Rotation
 from mocapkit import cli
 from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io import load_signals
-from mocapkit.io.mkp import Header, Sensor, crc16, delta_bound, dequantise, half_step, mkp_bytes, parse_packet, read_mkp
+from mocapkit.pla.packet_layout import (
+    Header,
+    Sensor,
+    crc16,
+    delta_bound,
+    dequantise,
+    half_step,
+    mkp_bytes,
+    parse_packet,
+)
+from mocapkit.jobs.readers import read_mkp
 from mocapkit.jobs.packets import compress_packets_job, decode_at, decompress_packets_job
 from mocapkit.pla import anglesw
 from mocapkit.pla.packets import EPS, default_bits, packetise
@@ -327,7 +337,7 @@ def test_compress_job_on_the_walk_meets_the_radio_goal(shared_data, tmp_path):
     assert total <= raw / 10
     assert all(r["max_deg"] <= 2.0 for r in rec["signals"])
     f = read_mkp(tmp_path / "walk.mkp")
-    from mocapkit.io.mkp import header_bytes
+    from mocapkit.pla.packet_layout import header_bytes
 
     assert (tmp_path / "walk.mkp").stat().st_size == len(header_bytes(f.header)) + total + sum(
         r["packets"] for r in rec["signals"])
@@ -583,7 +593,7 @@ def _cli(args: list[str]) -> int:
 
 def _split(data: bytes, f) -> list[bytes]:
     """The packet records at the end of a file, walked back from the known packet count."""
-    from mocapkit.io.mkp import header_bytes
+    from mocapkit.pla.packet_layout import header_bytes
 
     pos = len(header_bytes(f.header))
     out = []

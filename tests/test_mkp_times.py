@@ -33,7 +33,8 @@ from scipy.spatial.transform import Rotation, Slerp
 from mocapkit import cli
 from mocapkit.errors import MocapFormatError
 from mocapkit.io import load_signals, read_imu_csv
-from mocapkit.io.mkp import MAGIC, VERSION, read_mkp
+from mocapkit.jobs.readers import read_mkp
+from mocapkit.pla.packet_layout import MAGIC, VERSION
 
 DATA = Path(__file__).resolve().parent / "data"
 
@@ -152,7 +153,7 @@ def decode_paths(orig_path: Path, deg: float, tmp: Path, opts=(), drop_packet: i
 
 def _records(data: bytes, f) -> list[int]:
     """Offsets of the packet records (their length bytes) after the header."""
-    from mocapkit.io.mkp import header_bytes
+    from mocapkit.pla.packet_layout import header_bytes
 
     pos, out = len(header_bytes(f.header)), []
     while pos < len(data):
@@ -316,7 +317,7 @@ def test_every_decode_path_on_every_shared_imu_recording(shared_data, tmp_path, 
 
 def _raw_file(*, bits=11, pbytes=20, angle=1.0, maxlen=1000, rate=50.0, t0=0.0, first_tick=0) -> bytes:
     """A one-sensor file with any header values (CRC right) and one one-point last packet at ``first_tick``."""
-    from mocapkit.io.mkp import crc16
+    from mocapkit.pla.packet_layout import crc16
 
     head = bytearray(struct.pack("<4sBBBBdI", MAGIC, VERSION, bits, pbytes, 1, angle, maxlen))
     head += bytes([1]) + b"s" + struct.pack("<dd", rate, t0)
@@ -373,7 +374,7 @@ def _re(s: str) -> str:
 
 def test_a_clock_that_cannot_place_the_points_is_a_format_error():
     """Rate and t0 in range, but the points' nominal times fall beyond ±1e12 s or cannot be told apart."""
-    from mocapkit.io.mkp import Header, Sensor, mkp_bytes
+    from mocapkit.pla.packet_layout import Header, Sensor, mkp_bytes
     from mocapkit.pla.packets import packetise
 
     sig = read_imu_csv(DATA / "xio" / "pelvis" / "Quaternion.csv")
@@ -398,7 +399,7 @@ def test_cli_refuses_a_header_rate_of_1e_300_in_one_line(tmp_path, capsys):
 
 
 def test_the_writer_refuses_what_the_reader_refuses():
-    from mocapkit.io.mkp import Header, Sensor, header_bytes
+    from mocapkit.pla.packet_layout import Header, Sensor, header_bytes
 
     for h in (Header(10, 20, 2.0, 1000, (Sensor("s", 1e-300, 0.0),)),
               Header(10, 20, 2.0, 1000, (Sensor("s", 50.0, -1e300),)),

@@ -159,7 +159,7 @@ def test_imu_signals_and_sensor_folder(tests_data):
 
 
 def test_opensim_table_joint_angles(tests_data):
-    from mocapkit.io.opensim import read_table
+    from mocapkit.io.markers.opensim import read_table
 
     path = tests_data / "opensim" / "subject01_walk1_ik-first20.mot"
     r = describe(read_table(path), path)

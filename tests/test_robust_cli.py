@@ -675,7 +675,7 @@ def test_unreachable_target_icr_names_the_option():
 def test_position_bound_below_float_resolution_is_refused_by_option_and_library():
     r = cli_run("compress", str(BVH), "--max-position-error", "1e-320", "--stats-only")
     assert_one_line_error(r, "--max-position-error")
-    from mocapkit.io.bvh import read_bvh
+    from mocapkit.io.skeletal.bvh import read_bvh
     from mocapkit.pla.skeletal import compress_motion
 
     with pytest.raises(InvalidParameterError, match="below what float64 forward kinematics resolves"):
@@ -684,7 +684,7 @@ def test_position_bound_below_float_resolution_is_refused_by_option_and_library(
 
 def test_c3d_writer_errors_name_the_output(tmp_path):
     from mocapkit import Markers
-    from mocapkit.io.c3d import write_c3d
+    from mocapkit.io.markers.c3d import write_c3d
 
     out = tmp_path / "gappy.c3d"
     mk = Markers(np.array([0.0, 0.01, 0.025]), np.zeros((3, 1, 3)), ["a"], 100.0)

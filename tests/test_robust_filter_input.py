@@ -1,4 +1,4 @@
-"""Issue 10: the plain time-table CSV that ``mocapkit filter`` reads (io/timetable.py) — strict,
+"""Issue 10: the plain time-table CSV that ``mocapkit filter`` reads (io/text/timetable.py) — strict,
 bounded, one-line errors; an endless header-less pipe is refused at once within bounded memory."""
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mocapkit.errors import MocapFormatError, MocapWarning
-from mocapkit.io.timetable import read_time_table
+from mocapkit.io.text.timetable import read_time_table
 
 EXE = [sys.executable, "-m", "mocapkit.cli"]
 
@@ -145,7 +145,7 @@ def test_endless_fifo_without_header_is_refused_at_once_in_bounded_memory(tmp_pa
 
 def test_endless_fifo_with_header_stops_at_the_pipe_cap(tmp_path, monkeypatch):
     """A header then endless rows: refused when the pipe cap is reached (lowered here to keep it quick)."""
-    import mocapkit.io.textinput as ti
+    import mocapkit.io.text.input as ti
 
     monkeypatch.setattr(ti, "MAX_STREAM_BYTES", 8 << 20)
     fifo = tmp_path / "endless.csv"

@@ -21,11 +21,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mocapkit.errors import InvalidParameterError, MocapFormatError
-from mocapkit.io.imu_lines import CHUNK_BYTES, MAX_LINE_BYTES
-from mocapkit.io.imu_rows import MIN_STEP
-from mocapkit.io.imucsv import read_imu_csv, read_imu_file, read_imu_text
-from mocapkit.io.numbers import MAX_ABS
-from mocapkit.io.streamcsv import iter_samples
+from mocapkit.io.imu.lines import CHUNK_BYTES, MAX_LINE_BYTES
+from mocapkit.io.imu.rows import MIN_STEP
+from mocapkit.io.imu.signals import read_imu_csv, read_imu_file, read_imu_text
+from mocapkit.io.imu.stream import iter_samples
+from mocapkit.io.text.numbers import MAX_ABS
 
 IMU = Path(__file__).resolve().parent / "data" / "imu"
 H = "Timestamp (us),W,X,Y,Z\n"

@@ -165,7 +165,7 @@ def test_tssb_settings_and_embedding():
 
 
 def test_read_reference_detects_the_format(tmp_path):
-    from mocapkit.io.labels import read_reference as _read_reference
+    from mocapkit.io.skeletal.labels import read_reference as _read_reference
 
     haca = tmp_path / "h.txt"
     haca.write_text("86 01\nwalk 40 50 60\njump 100 100 100\n")
@@ -248,7 +248,7 @@ def test_segment_bench_on_user_takes(excerpt, tmp_path):
 def test_haca_labels_without_header_and_with_integer_labels(tmp_path):
     """The header line is optional (a first line that is a segment line is kept, not dropped), and
     integer labels in the HACA layout are read as HACA, not as per-frame labels."""
-    from mocapkit.io.labels import read_reference as _read_reference
+    from mocapkit.io.skeletal.labels import read_reference as _read_reference
 
     body = "stand 40 50 60\ndown 90 100 110\nup 150 150 150\n"
     with_header = tmp_path / "h.txt"

@@ -1,4 +1,4 @@
-"""Segmentation scores (mocapkit.segment.metrics) and ground-truth loaders (mocapkit.io.labels):
+"""Segmentation scores (mocapkit.segment.metrics) and ground-truth loaders (mocapkit.io.skeletal.labels):
 hand-computed examples, brute-force references on small random cases, claspy's covering, tiny
 good and bad label files, and the real CMU label files."""
 
@@ -14,7 +14,7 @@ import pytest
 from claspy.tests.evaluation import covering as claspy_covering
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError
-from mocapkit.io.labels import (
+from mocapkit.io.skeletal.labels import (
     MOCAP6_ACTIONS,
     Reference,
     labels_from_frames,

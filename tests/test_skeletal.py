@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.bvh import parse_bvh, read_bvh, write_bvh
-from mocapkit.io.gltf import write_gltf
+from mocapkit.io.skeletal.bvh import parse_bvh, read_bvh, write_bvh
+from mocapkit.io.formats.gltf import write_gltf
 from mocapkit.pla.skeletal import compress_motion, position_errors
 from mocapkit.skeleton import forward_kinematics
 from reference_kinematics import gltf_validator
@@ -251,7 +251,7 @@ def test_cli_skeletal_compress_json(tests_data, tmp_path):
 
 def test_amc_to_bvh_round_trip_positions(tests_data, tmp_path):
     """ASF/AMC -> BVH -> read back: world positions equal within 1e-6 of the length unit."""
-    from mocapkit.io.amc import read_amc, read_asf
+    from mocapkit.io.skeletal.amc import read_amc, read_asf
 
     cmu = tests_data / "cmu"
     asf = read_asf(cmu / "86.asf")
@@ -287,7 +287,7 @@ def test_amc_cli_compress_and_convert(tests_data, tmp_path):
 
 
 def test_amc_to_bvh_round_trip_on_shared_files(shared_data, tmp_path):
-    from mocapkit.io.amc import read_amc, read_asf
+    from mocapkit.io.skeletal.amc import read_amc, read_asf
 
     asf = read_asf(shared_data / "cmu" / "86.asf")
     for name in ("86_01", "13_29", "13_30", "14_14"):
@@ -298,7 +298,7 @@ def test_amc_to_bvh_round_trip_on_shared_files(shared_data, tmp_path):
 
 
 def test_position_bound_on_shared_cmu(shared_data):
-    from mocapkit.io.amc import read_amc, read_asf
+    from mocapkit.io.skeletal.amc import read_amc, read_asf
 
     m = read_amc(shared_data / "cmu" / "86_01.amc", read_asf(shared_data / "cmu" / "86.asf"))
     bound = 0.5 / m.skeleton.meta["length_unit_cm"]  # 0.5 cm in file units
@@ -316,7 +316,7 @@ def test_convert_bvh_to_amc_and_back(tests_data, tmp_path):
     r = subprocess.run([*exe, str(tmp_path / "a.bvh"), str(tmp_path / "b.amc"), "--asf", str(cmu / "86.asf")],
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
-    from mocapkit.io.amc import read_amc, read_asf
+    from mocapkit.io.skeletal.amc import read_amc, read_asf
 
     asf = read_asf(cmu / "86.asf")
     P0 = forward_kinematics(read_amc(amc, asf))[0]

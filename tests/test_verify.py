@@ -140,7 +140,7 @@ def scipy_imu(original: Path, compressed: Path) -> tuple[float, float]:
     signals = load_signals(original)
     errs = []
     if compressed.suffix == ".mkp":
-        from mocapkit.io.mkp import read_mkp
+        from mocapkit.jobs.readers import read_mkp
 
         streams = read_mkp(compressed).streams
         for name, sig in signals.items():
@@ -240,8 +240,8 @@ def skeletal_outputs(shared_data, tmp_path_factory):
 
 
 def test_skeletal_shared_files_agree_with_scipy(skeletal_outputs):
-    from mocapkit.io.gltf import read_gltf
-    from mocapkit.io.mkc_reader import read_mkc
+    from mocapkit.io.formats.gltf import read_gltf
+    from mocapkit.jobs.readers import read_mkc
 
     assert len(skeletal_outputs) == 2 * len(SKELETAL_FILES)
     for src, comp, asf in skeletal_outputs:

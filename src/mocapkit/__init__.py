@@ -16,10 +16,20 @@ from mocapkit.errors import (
     MocapError,
     MocapFormatError,
 )
-from mocapkit.io.loaders import load
+from mocapkit.io.loaders import load, register_motion_reader
 from mocapkit.markers import Markers
 from mocapkit.motion import Signal
 from mocapkit.skeleton import Motion, Skeleton, forward_kinematics
+
+
+def _read_mkc(path):
+    """A ``.mkc`` clip for :func:`load`: its bytes read by io, decoded by :mod:`mocapkit.clip`."""
+    from mocapkit.jobs.readers import read_mkc
+
+    return read_mkc(path)
+
+
+register_motion_reader(".mkc", _read_mkc)  # io imports no algorithm: the root joins them
 
 try:
     __version__ = _metadata.version("mocapkit")

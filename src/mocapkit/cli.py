@@ -265,7 +265,7 @@ def convert(
         if suffix not in (".bvh", ".amc"):
             raise InvalidParameterError(f"{output}: skeletal motion converts to .bvh or .amc")
         if suffix == ".bvh":
-            from mocapkit.io.bvh import write_bvh
+            from mocapkit.io.skeletal.bvh import write_bvh
 
             m = load_motion(input, asf=asf, strict=strict)
             write_bvh(output, m, precision=precision)
@@ -274,7 +274,7 @@ def convert(
         else:
             if asf is None or input.suffix.lower() != ".bvh":
                 raise InvalidParameterError("BVH -> AMC needs --asf (the skeleton the BVH was made from)")
-            from mocapkit.io.amc import read_asf, write_amc
+            from mocapkit.io.skeletal.amc import read_asf, write_amc
 
             m = load_motion(input, strict=strict)
             try:
@@ -297,7 +297,7 @@ def convert(
         for w in mk.meta.get("warnings", []):
             err.print(f"warning: {input}: {w}")
     elif input.suffix.lower() in (".mot", ".sto"):
-        from mocapkit.io.opensim import read_opensim_signals, write_orientations, write_table, write_table_csv
+        from mocapkit.io.markers.opensim import read_opensim_signals, write_orientations, write_table, write_table_csv
 
         suffix = output.suffix.lower()
         if suffix not in (".mot", ".sto", ".csv"):
@@ -479,8 +479,8 @@ def decompress(
 
 
 def _decompress_clip(clip: Path, output: Path, times_from: Optional[Path], rate: Optional[float]) -> None:
-    from mocapkit.io.bvh import write_bvh
-    from mocapkit.io.gltf import read_gltf
+    from mocapkit.io.skeletal.bvh import write_bvh
+    from mocapkit.io.formats.gltf import read_gltf
 
     if output.suffix.lower() != ".bvh":
         raise InvalidParameterError(f"{output}: a skeletal clip decodes to .bvh")

@@ -7,12 +7,12 @@ This module touches no file and imports nothing from :mod:`mocapkit.io`. The rea
 there (they all return :class:`Markers` and raise only :class:`mocapkit.errors.MocapFormatError` for
 bad files):
 
-* ``.c3d``: :func:`mocapkit.io.c3d.read_c3d` (ezc3d, after a structural pre-check);
-* ``.tsv``: :func:`mocapkit.io.qtm.read_qtm_tsv` (Qualisys QTM 3-D TSV export);
-* ``.trc``: :func:`mocapkit.io.opensim.read_trc` (OpenSim TRC);
-* ``.csv``: :func:`mocapkit.io.vicon_csv.read_vicon_csv` for a Vicon Nexus export (first line
-  ``Trajectories`` or ``Devices``), else :func:`mocapkit.io.marker_csv.read_markers_csv`, the wide CSV
-  of :func:`mocapkit.io.marker_csv.write_markers_csv`.
+* ``.c3d``: :func:`mocapkit.io.markers.c3d.read_c3d` (ezc3d, after a structural pre-check);
+* ``.tsv``: :func:`mocapkit.io.markers.qtm.read_qtm_tsv` (Qualisys QTM 3-D TSV export);
+* ``.trc``: :func:`mocapkit.io.markers.opensim.read_trc` (OpenSim TRC);
+* ``.csv``: :func:`mocapkit.io.markers.vicon_csv.read_vicon_csv` for a Vicon Nexus export (first line
+  ``Trajectories`` or ``Devices``), else :func:`mocapkit.io.markers.wide_csv.read_markers_csv`, the wide CSV
+  of :func:`mocapkit.io.markers.wide_csv.write_markers_csv`.
 
 :func:`mocapkit.io.load_markers` (these four) and :func:`mocapkit.io.write_markers` (``.c3d``, ``.trc``,
 ``.csv``) dispatch by suffix.

@@ -11,6 +11,11 @@ from mocapkit.errors import InvalidSignalError
 
 Kind = Literal["quaternion", "vector"]
 
+MAX_ABS = 1e12
+"""Largest magnitude a reader accepts for any coordinate, angle, quaternion component or time (squares and
+sums of up to 1e6 such values stay far below float64's 1.8e308): the limit of the text readers'
+number grammar (:mod:`mocapkit.io.text.numbers`) and of the ``.mkp`` header's times."""
+
 
 @dataclass(frozen=True)
 class Signal:

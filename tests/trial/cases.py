@@ -873,11 +873,11 @@ def area_of(rec: dict) -> str:
     f = rec.get("owner_file") or ""
     if "io/atomic" in f:
         return "atomic.py"
-    if any(k in f for k in ("io/bvh", "io/amc", "io/gltf")):
-        return "skeletal readers"
-    if any(k in f for k in ("io/qtm", "io/c3d", "io/opensim", "io/vicon", "io/mvnx", "markers.py")):
+    if any(k in f for k in ("io/markers/", "io/skeletal/mvnx", "markers.py")):
         return "marker readers"
-    if any(k in f for k in ("io/imu", "io/streamcsv", "io/numbers")):
+    if any(k in f for k in ("io/skeletal/bvh", "io/skeletal/amc", "io/formats/gltf")):
+        return "skeletal readers"
+    if any(k in f for k in ("io/imu/", "io/text/numbers")):
         return "IMU readers"
     if f == "cli.py" and rec["category"] in ("options", "usage"):
         return "CLI"

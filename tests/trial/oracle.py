@@ -170,30 +170,30 @@ def digest(path: str, fmt: str, options: dict | None = None) -> dict:
         warnings.simplefilter("always")
         try:
             if fmt in ("glb", "gltf"):
-                from mocapkit.io.gltf import read_gltf
+                from mocapkit.io.formats.gltf import read_gltf
 
                 obj = read_gltf(path)
             elif fmt == "points":
-                from mocapkit.io.imucsv import read_imu_csv
+                from mocapkit.io.imu.signals import read_imu_csv
 
                 obj = {"points": read_imu_csv(path)}
             elif fmt == "mkpoints":  # a tick-column points CSV, as decompress and verify read it
-                from mocapkit.io.timetable import read_time_table
+                from mocapkit.io.text.timetable import read_time_table
 
                 tab = read_time_table(path, "points CSV")
                 obj = {"table": {"times": tab.times, "values": tab.values}}
             elif fmt == "mkp":
-                from mocapkit.io.mkp import read_mkp
+                from mocapkit.jobs.readers import read_mkp
 
                 pf = read_mkp(path)
                 caught_losses = pf.losses()
                 obj = {name: {"times": s.ticks, "values": s.values} for name, s in pf.streams.items()}
             elif fmt == "mkc":
-                from mocapkit.io.mkc_reader import read_mkc
+                from mocapkit.jobs.readers import read_mkc
 
                 obj = read_mkc(path)
             elif fmt == "c3d_out":
-                from mocapkit.io.c3d import read_c3d
+                from mocapkit.io.markers.c3d import read_c3d
 
                 obj = read_c3d(path)
             else:

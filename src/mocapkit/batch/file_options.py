@@ -292,8 +292,8 @@ def _states(key: str, path: Path, kind: str, options: dict) -> str | None:
     if kind == "imu" and key == "rate":
         if not path.is_dir() and suffix not in (".csv", ".txt"):
             return "its time column"
-        from mocapkit.io.imu_columns import ColumnOptions
-        from mocapkit.io.imucsv import stated_clock
+        from mocapkit.io.imu.columns import ColumnOptions
+        from mocapkit.io.imu.signals import stated_clock
 
         try:
             cols = ColumnOptions(**{k: options[k] for k in COLUMN_KEYS if options.get(k)})
@@ -392,7 +392,7 @@ def resolve(job: str, path: str | os.PathLike[str], options: dict, manifest: Man
     if out.get("asf") is not None:
         files.append(os.fspath(out["asf"]))
     elif kind == "skeletal" and path.suffix.lower() == ".amc" and "asf" in takes:
-        from mocapkit.io.amc import companion_asf
+        from mocapkit.io.skeletal.amc import companion_asf
 
         found = companion_asf(path)
         if found is not None:

@@ -14,8 +14,8 @@
    kinematics gives every point's error in every frame; in a block where a point exceeds the bound,
    only the tracks that move that point are re-encoded, √2 tighter, and only that block is checked
    again. At ``S0·2^(−r/2) ≤ 1`` a track is within its worst-case budget, so the repair ends.
-5. **Entropy stage** per block (:mod:`~mocapkit.io.mkc_codec`), container (:mod:`mocapkit.io.mkc`), and a
-   final check of the written bytes by the reader (:class:`~mocapkit.io.mkc_reader.Clip`) alone.
+5. **Entropy stage** per block (:mod:`~mocapkit.clip.codec`), container (:mod:`mocapkit.clip.container`), and a
+   final check of the written bytes by the reader (:class:`~mocapkit.clip.decoder.Clip`) alone.
 """
 
 from __future__ import annotations
@@ -35,9 +35,9 @@ from mocapkit.clip.keys import choose_keys
 from mocapkit.clip.metric import (check_metric, end_errors_from_fk, end_site_arrays, errors_from_fk,
                                   worst_point_errors)
 from mocapkit.errors import BoundViolationError, InvalidParameterError
-from mocapkit.io.mkc import mkc_bytes
-from mocapkit.io.mkc_codec import ENTROPY, entropy_encode, pack_block, steps_table, unpack_block
-from mocapkit.io.mkc_reader import Clip
+from mocapkit.clip.container import mkc_bytes
+from mocapkit.clip.codec import ENTROPY, entropy_encode, pack_block, steps_table, unpack_block
+from mocapkit.clip.decoder import Clip
 from mocapkit.rotvec import exp_map, log_map
 from mocapkit.skeleton import Motion, forward_kinematics
 

@@ -19,8 +19,8 @@ import math
 import numba
 import numpy as np
 
+from mocapkit.clip.codec import residual_cost
 from mocapkit.errors import InvalidParameterError
-from mocapkit.io.mkc_codec import residual_cost
 
 
 @numba.njit(cache=True)

@@ -16,8 +16,8 @@ import math
 import numba
 import numpy as np
 
+from mocapkit.clip.container import BOUND_METRICS
 from mocapkit.errors import InvalidParameterError
-from mocapkit.io.mkc import BOUND_METRICS
 from mocapkit.skeleton import Motion, forward_kinematics
 
 METRICS = BOUND_METRICS  # ("joint+end", "joint", "shell"): what a clip's header may name

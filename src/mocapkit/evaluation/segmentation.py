@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.labels import Reference, read_frame_labels, read_haca_labels
+from mocapkit.io.skeletal.labels import Reference, read_frame_labels, read_haca_labels
 from mocapkit.segment.metrics import covering, f1_margin, frame_agreement, ri_paper
 
 MOCAP_TAKES = ("86_01", "13_29", "13_30", "14_14")
@@ -94,7 +94,7 @@ def find_pairs(items, label_suffix: str = ".labels.txt") -> list[tuple[Path, Pat
 def load_user_takes(pairs, asf: Path | None = None, rate: float | None = None, log=None) -> list[Take]:
     """Every take and its labels. All label files are read and checked against their take's frame
     count first (a bad file fails before any feature is computed); then the features."""
-    from mocapkit.io.labels import read_reference
+    from mocapkit.io.skeletal.labels import read_reference
     from mocapkit.io.loaders import load_motion
     from mocapkit.segment.features import motion_features, pose_features
 

@@ -1,7 +1,7 @@
 """Reading and writing motion files."""
 
 from mocapkit.io.atomic import atomic_write_bytes, atomic_write_text, atomic_writer
-from mocapkit.io.imucsv import (
+from mocapkit.io.imu.signals import (
     ACCEPTED_HEADERS,
     READERS,
     ColumnOptions,
@@ -18,7 +18,7 @@ from mocapkit.io.imucsv import (
 )
 
 from mocapkit.io.loaders import kind_of, load, load_markers, load_motion, write_markers  # also registers .sto/.mot
-from mocapkit.io.marker_csv import read_markers_csv, write_markers_csv
+from mocapkit.io.markers.wide_csv import read_markers_csv, write_markers_csv
 
 __all__ = [
     "kind_of",

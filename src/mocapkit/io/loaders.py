@@ -4,6 +4,7 @@ TSV) or IMU orientation streams (CSV/text exports)."""
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 from mocapkit.errors import MocapFormatError
@@ -13,13 +14,21 @@ SKELETAL_SUFFIXES = (".bvh", ".amc", ".mvnx", ".mkc")
 MARKER_SUFFIXES = (".c3d", ".tsv", ".trc")
 #: OpenSim tables: ``"imu"`` for an OpenSense orientation STO, else ``"table"`` (joint angles...).
 TABLE_SUFFIXES = (".mot", ".sto")
+#: Suffix -> reader of a skeletal file whose decoder is an algorithm above io (the ``.mkc`` clip's is
+#: :mod:`mocapkit.clip`), registered by the package root (``mocapkit/__init__.py``) so io imports none.
+MOTION_READERS: dict[str, Callable[[Path], Motion]] = {}
+
+
+def register_motion_reader(suffix: str, read: Callable[[Path], Motion]) -> None:
+    """Make :func:`load_motion` read files ending in ``suffix`` (lower case, with the dot) by ``read(path)``."""
+    MOTION_READERS[suffix.lower()] = read
 
 
 def kind_of(path: str | Path) -> str:
     """``"skeletal"``, ``"markers"``, ``"table"`` or ``"imu"`` (folders and everything else are IMU data).
 
     A ``.csv`` is ``"markers"`` when it is a Vicon Nexus export (first line ``Trajectories`` or
-    ``Devices``) or the wide CSV of :func:`~mocapkit.io.marker_csv.write_markers_csv` (``time (s),<m>_x (mm),...``); a
+    ``Devices``) or the wide CSV of :func:`~mocapkit.io.markers.wide_csv.write_markers_csv` (``time (s),<m>_x (mm),...``); a
     ``.mot``/``.sto`` is ``"imu"`` when it holds OpenSense orientations (``DataType=Quaternion``),
     else ``"table"`` (one vector signal, e.g. joint angles).
     """
@@ -39,7 +48,7 @@ def kind_of(path: str | Path) -> str:
         if s == ".csv" and p.is_file() and _marker_csv(p):
             return "markers"
         if s in TABLE_SUFFIXES:
-            from mocapkit.io.opensim import table_kind
+            from mocapkit.io.markers.opensim import table_kind
 
             return "imu" if table_kind(p) == "orientations" else "table"
     return "imu"
@@ -53,27 +62,25 @@ def load_motion(path: str | Path, asf: str | Path | None = None, rate: float | N
         raise MocapFormatError(str(p), None, "no such file")
     s = p.suffix.lower()
     if s == ".bvh":
-        from mocapkit.io.bvh import read_bvh
+        from mocapkit.io.skeletal.bvh import read_bvh
 
         if rate is not None:
             raise MocapFormatError(str(p), None, "a BVH file has its own Frame Time; do not give --rate")
         return read_bvh(p, strict=strict)
     if s == ".amc":
-        from mocapkit.io.amc import load_amc_for_cli
+        from mocapkit.io.skeletal.amc import load_amc_for_cli
 
         return load_amc_for_cli(p, asf=asf, rate=rate)
     if s == ".mvnx":
-        from mocapkit.io.mvnx import read_mvnx
+        from mocapkit.io.skeletal.mvnx import read_mvnx
 
         if rate is not None or asf is not None:
             raise MocapFormatError(str(p), None, "an MVNX file has its own frameRate and skeleton; do not give --rate or --asf")
         return read_mvnx(p)
-    if s == ".mkc":
-        from mocapkit.io.mkc_reader import read_mkc
-
+    if s == ".mkc" and s in MOTION_READERS:
         if rate is not None or asf is not None:
             raise MocapFormatError(str(p), None, "a mocapkit clip has its own frame times and skeleton; do not give --rate or --asf")
-        return read_mkc(p)
+        return MOTION_READERS[s](p)
     raise MocapFormatError(str(p), None, f"not a skeletal motion file (expected {', '.join(SKELETAL_SUFFIXES)})")
 
 
@@ -84,33 +91,33 @@ def companions(path: str | Path, *, asf: str | Path | None = None,
     The ASF beside a CMU-named AMC (``<stem>.asf`` / ``<subject>.asf``) when no ``asf`` is given; the
     ``<stem>.labels.txt`` of a take with ``labels_beside`` (``segment``); the external buffer of a
     ``.gltf``; a legacy x-io file's ``<prefix>_Registers.csv``; a sensor folder's ``Session.xml`` and
-    ``*_Registers.csv`` (:func:`mocapkit.io.imu_sessions.folder_companions`). Files that do not
+    ``*_Registers.csv`` (:func:`mocapkit.io.imu.sessions.folder_companions`). Files that do not
     exist are not listed; nothing here raises for bad content (the reader reports it).
     """
     p = Path(path)
     out: list[Path] = []
     try:
         if p.is_dir():
-            from mocapkit.io.imu_sessions import folder_companions
+            from mocapkit.io.imu.sessions import folder_companions
 
             return folder_companions(p)
         if not p.is_file():
             return []
         s = p.suffix.lower()
         if s == ".amc" and asf is None:
-            from mocapkit.io.amc import companion_asf
+            from mocapkit.io.skeletal.amc import companion_asf
 
             found = companion_asf(p)
             out += [found] if found is not None else []
         if labels_beside and p.with_name(p.stem + ".labels.txt").is_file():
             out.append(p.with_name(p.stem + ".labels.txt"))
         if s == ".gltf":
-            from mocapkit.io.gltf import gltf_buffer_files
+            from mocapkit.io.formats.gltf import gltf_buffer_files
 
             out += gltf_buffer_files(p)
         if s in (".csv", ".txt"):
-            from mocapkit.io.imu_sessions import registers_file
-            from mocapkit.io.imucsv import detect_format
+            from mocapkit.io.imu.sessions import registers_file
+            from mocapkit.io.imu.signals import detect_format
 
             regs = registers_file(p)
             if regs is not None and detect_format(p) == "x-io-legacy":
@@ -160,7 +167,7 @@ def load(path: str | Path, **options):
         if options:
             raise TypeError(f"load() of a marker file takes no options, got {sorted(options)}")
         return load_markers(path)
-    from mocapkit.io.imucsv import load_signals
+    from mocapkit.io.imu.signals import load_signals
 
     return load_signals(path, **options)
 
@@ -172,7 +179,7 @@ def load(path: str | Path, **options):
 
 def _marker_csv(path: Path) -> str | None:
     """``"vicon"`` for a Vicon Nexus CSV export, ``"wide"`` for the CSV of ``write_markers_csv``."""
-    from mocapkit.io.vicon_csv import is_vicon_csv
+    from mocapkit.io.markers.vicon_csv import is_vicon_csv
 
     if is_vicon_csv(path):
         return "vicon"
@@ -191,7 +198,7 @@ def _marker_csv(path: Path) -> str | None:
 def load_markers(path: str | Path):
     """Read a marker file: ``.c3d`` (ezc3d), ``.tsv`` (Qualisys), ``.trc`` (OpenSim), ``.csv`` (a Vicon
     Nexus export when its first line is ``Trajectories``/``Devices``, else the wide CSV of
-    :func:`mocapkit.io.marker_csv.write_markers_csv`). Raises :class:`MocapFormatError` for a missing file, an
+    :func:`mocapkit.io.markers.wide_csv.write_markers_csv`). Raises :class:`MocapFormatError` for a missing file, an
     unknown suffix or bad content."""
     p = Path(path)
     if not p.exists():
@@ -200,23 +207,23 @@ def load_markers(path: str | Path):
         raise MocapFormatError(str(p), None, "is a folder, not a marker file")
     s = p.suffix.lower()
     if s == ".c3d":
-        from mocapkit.io.c3d import read_c3d
+        from mocapkit.io.markers.c3d import read_c3d
 
         return read_c3d(p)
     if s == ".tsv":
-        from mocapkit.io.qtm import read_qtm_tsv
+        from mocapkit.io.markers.qtm import read_qtm_tsv
 
         return read_qtm_tsv(p)
     if s == ".trc":
-        from mocapkit.io.opensim import read_trc
+        from mocapkit.io.markers.opensim import read_trc
 
         return read_trc(p)
     if s == ".csv":
         if _marker_csv(p) == "vicon":
-            from mocapkit.io.vicon_csv import read_vicon_csv
+            from mocapkit.io.markers.vicon_csv import read_vicon_csv
 
             return read_vicon_csv(p)
-        from mocapkit.io.marker_csv import read_markers_csv
+        from mocapkit.io.markers.wide_csv import read_markers_csv
 
         return read_markers_csv(p)
     raise MocapFormatError(str(p), None, f"unknown marker file suffix {p.suffix!r}; expected one of "
@@ -233,15 +240,15 @@ def write_markers(markers, path: str | Path, *, analog: bool = True) -> None:
 
     s = Path(path).suffix.lower()
     if s == ".c3d":
-        from mocapkit.io.c3d import write_c3d
+        from mocapkit.io.markers.c3d import write_c3d
 
         write_c3d(markers, path, analog=analog)
     elif s == ".trc":
-        from mocapkit.io.opensim import write_trc
+        from mocapkit.io.markers.opensim import write_trc
 
         write_trc(markers, path)
     elif s == ".csv":
-        from mocapkit.io.marker_csv import write_markers_csv
+        from mocapkit.io.markers.wide_csv import write_markers_csv
 
         write_markers_csv(markers, path)
     else:
@@ -249,13 +256,13 @@ def write_markers(markers, path: str | Path, *, analog: bool = True) -> None:
 
 
 def _read_opensim_signals(path, *, rate=None):
-    from mocapkit.io.opensim import read_opensim_signals
+    from mocapkit.io.markers.opensim import read_opensim_signals
 
     return read_opensim_signals(path, rate=rate)
 
 
 def _register_opensim() -> None:
-    from mocapkit.io.imucsv import register_reader
+    from mocapkit.io.imu.signals import register_reader
 
     for suffix in TABLE_SUFFIXES:
         register_reader(suffix, _read_opensim_signals)

@@ -86,8 +86,8 @@ def not_read_by(job: str, path: str | Path, options: dict | None = None) -> str 
             and options.get("max_angle") is None:
         return "--max-position-error is a bound for skeletons; IMU data takes --max-angle DEG"
     if kind == "imu" and path.is_file() and path.suffix.lower() in (".csv", ".txt", ".tsv"):
-        from mocapkit.io.imu_columns import ColumnOptions
-        from mocapkit.io.imucsv import detect_format
+        from mocapkit.io.imu.columns import ColumnOptions
+        from mocapkit.io.imu.signals import detect_format
 
         cols = {k: options.get(k) for k in ("time_column", "quaternion_columns", "scalar_last", "time_unit")}
         try:

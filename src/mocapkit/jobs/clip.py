@@ -19,10 +19,10 @@ def compress_clip_job(path: Path, output: Path, *, max_position_error: float | N
     from mocapkit.clip import DEFAULT_BLOCK_FRAMES, encode_clip
     from mocapkit.clip.metric import check_metric
     from mocapkit.io.loaders import load_motion, unit_cm as find_unit
-    from mocapkit.io.mkc import write_mkc
+    from mocapkit.io.formats.mkc import write_mkc
 
     check_metric(error_metric)
-    from mocapkit.io.mkc_codec import ENTROPY
+    from mocapkit.clip.codec import ENTROPY
 
     if entropy not in ENTROPY:
         raise InvalidParameterError(f"--entropy {entropy!r}: one of {', '.join(ENTROPY)}")
@@ -55,9 +55,9 @@ def compress_clip_job(path: Path, output: Path, *, max_position_error: float | N
 
 def clip_fields(path: Path) -> dict:
     """What ``info`` adds for a ``.mkc`` clip (from its header; ``clip_`` fields)."""
-    from mocapkit.io.mkc_reader import Clip
+    from mocapkit.jobs.readers import open_clip
 
-    i = Clip(path).info()
+    i = open_clip(path).info()
     b = i.get("bound") or {}
     u = i.get("unit_cm")
     cm = (lambda v: None if v is None or u is None else v * u)
@@ -71,18 +71,18 @@ def clip_fields(path: Path) -> dict:
 
 def decompress_clip_job(path: Path, output: Path) -> dict:
     """Decode a ``.mkc`` clip to ``.bvh`` (6 decimals) or ``.glb``/``.gltf`` (every frame a key, float rotations)."""
-    from mocapkit.io.mkc_reader import read_mkc
+    from mocapkit.jobs.readers import read_mkc
 
     suffix = Path(output).suffix.lower()
     if suffix not in (".bvh", ".glb", ".gltf"):
         raise InvalidParameterError(f"{output}: a .mkc clip decodes to .bvh, .glb or .gltf")
     motion = read_mkc(path)
     if suffix == ".bvh":
-        from mocapkit.io.bvh import write_bvh
+        from mocapkit.io.skeletal.bvh import write_bvh
 
         write_bvh(output, motion, precision=6)
     else:
-        from mocapkit.io.gltf import write_gltf
+        from mocapkit.io.formats.gltf import write_gltf
         from mocapkit.jobs.gltf_out import every_frame
 
         u = motion.skeleton.meta.get("length_unit_cm") or 1.0

@@ -193,8 +193,8 @@ def _imu(path, output, method, threshold, target_icr, max_angle, max_segment_len
 def _skeletal(path, output, method, threshold, target_icr, max_position_error, max_angle, max_segment_length,
               rate, asf, unit_cm, strict, progress, gltf_rotations="short", shell_distance=3.0,
               end_sites=True) -> dict:
-    from mocapkit.io.bvh import write_bvh
-    from mocapkit.io.gltf import ROTATION_FORMATS
+    from mocapkit.io.skeletal.bvh import write_bvh
+    from mocapkit.io.formats.gltf import ROTATION_FORMATS
     from mocapkit.io.loaders import load_motion, unit_cm as find_unit
     from mocapkit.jobs.gltf_out import compress_to_gltf, write_checked
     from mocapkit.pla.skeletal import compress_motion, report, verify_position_bound

@@ -19,7 +19,7 @@ def _inputs(path: Path, kind: str, markers: str | None, columns: str | None):
         raise InvalidParameterError("give --markers or --columns, not both")
     is_markers = kind == "markers"
     if is_markers and columns is not None and path.suffix.lower() == ".csv":
-        from mocapkit.io.vicon_csv import is_vicon_csv
+        from mocapkit.io.markers.vicon_csv import is_vicon_csv
 
         is_markers = is_vicon_csv(path)  # --columns reads a wide marker CSV as plain columns
     if is_markers and columns is not None:
@@ -49,8 +49,8 @@ def _inputs(path: Path, kind: str, markers: str | None, columns: str | None):
     if kind not in ("imu", "table") or path.suffix.lower() not in (".csv", ".txt"):
         raise InvalidParameterError(f"{path}: filter reads marker files (C3D, TSV, TRC, marker CSV) or a CSV "
                                     "with a time column; for skeletal motion, convert it or segment it")
-    # a plain CSV with a header: a time column (first) and named columns (strict, bounded: io/timetable.py)
-    from mocapkit.io.timetable import read_time_table
+    # a plain CSV with a header: a time column (first) and named columns (strict, bounded: io/text/timetable.py)
+    from mocapkit.io.text.timetable import read_time_table
 
     tab = read_time_table(path)
     names = [c.strip() for c in columns.split(",")] if columns else tab.columns
@@ -186,7 +186,7 @@ def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto
         name, t, Y, comps, r = next(x for x in results if x[4] is not None)
         plot_ppa(t, Y[:, -1], r, Path(plot), title=f"{path.name}: {comps[-1]}")
         outputs.append(output_entry(Path(plot), "png"))
-    from mocapkit.io.timetable import TimeTable
+    from mocapkit.io.text.timetable import TimeTable
 
     if isinstance(loaded, TimeTable):
         described, read_warnings = _table_recording(loaded, path), list(loaded.warnings)

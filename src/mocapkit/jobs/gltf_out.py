@@ -2,7 +2,7 @@
 
 The bound of ``compress ... -o OUT.glb --max-position-error CM`` is a guarantee on what a reader of
 the file gets, not on the keyframes in memory: glTF stores key times and translations as float32 and
-rotations as float32 or normalized SHORT (:mod:`mocapkit.io.gltf`), which adds a small error of its
+rotations as float32 or normalized SHORT (:mod:`mocapkit.io.formats.gltf`), which adds a small error of its
 own. :func:`compress_to_gltf` therefore
 
 1. bounds that storage error before compressing — :func:`storage_error_bound`, a worst case from the
@@ -10,7 +10,7 @@ own. :func:`compress_to_gltf` therefore
    joint's distance to its ancestors — and measures it on the original motion stored with every frame
    a key (:func:`every_frame`, written and read back: ``q0``);
 2. compresses to the smaller bound ``E − min(Q, 1.5·q0)`` and decodes the bytes it is about to write
-   with :func:`~mocapkit.io.gltf.read_gltf` (forward kinematics of every joint in every frame against
+   with :func:`~mocapkit.io.formats.gltf.read_gltf` (forward kinematics of every joint in every frame against
    the original);
 3. when that misses ``E``, compresses once more to ``E − Q`` (the worst case: safe) or, where ``Q``
    leaves too little, to ``E − 2·q`` with ``q`` the storage error measured on the first file;
@@ -77,7 +77,7 @@ def storage_error_bound(motion, rotations: str, bound: float = 0.0, end_sites: b
     rotations keep distances). One pass over the joints, parents first. With ``end_sites`` the End
     Sites too: each is a bone of its offset's length below its joint, moved by that joint's rotation.
     """
-    from mocapkit.io.gltf import FLOAT_KEY_ANGLE, ROTATION_FORMATS, SHORT_KEY_ANGLE
+    from mocapkit.io.formats.gltf import FLOAT_KEY_ANGLE, ROTATION_FORMATS, SHORT_KEY_ANGLE
     from mocapkit.pla.skeletal import animated_tracks
     from mocapkit.quat import angular_distance
     from mocapkit.skeleton import forward_kinematics
@@ -119,9 +119,9 @@ def storage_error_bound(motion, rotations: str, bound: float = 0.0, end_sites: b
 
 def readback_error(motion, path: Path, data: bytes | None = None, end_sites: bool = False) -> float:
     """Largest world-position distance (file units) between ``motion`` and the glTF ``path`` (or its
-    bytes ``data``) decoded by :func:`~mocapkit.io.gltf.read_gltf`, over every joint (and End Site with
+    bytes ``data``) decoded by :func:`~mocapkit.io.formats.gltf.read_gltf`, over every joint (and End Site with
     ``end_sites``) and frame."""
-    from mocapkit.io.gltf import read_gltf
+    from mocapkit.io.formats.gltf import read_gltf
     from mocapkit.pla.skeletal import position_errors
 
     back = read_gltf(path, data=data)
@@ -141,7 +141,7 @@ def compress_to_gltf(motion, bound: float, output: Path, *, rotations: str = "sh
     done (``rotations`` used, the bounds compressed to, storage error bound and measured, read-back
     error, attempts, warnings)."""
     from mocapkit.io.atomic import is_device_or_pipe
-    from mocapkit.io.gltf import gltf_bytes, write_gltf
+    from mocapkit.io.formats.gltf import gltf_bytes, write_gltf
     from mocapkit.pla.skeletal import compress_motion
 
     suffix = output.suffix.lower()
@@ -220,7 +220,7 @@ def write_checked(motion, comp, output: Path, *, rotations: str = "short", unit_
                   name: str = "mocapkit") -> dict:
     """Write ``comp`` (compressed without a bound) and measure the read-back error of the file."""
     from mocapkit.io.atomic import is_device_or_pipe
-    from mocapkit.io.gltf import gltf_bytes, write_gltf
+    from mocapkit.io.formats.gltf import gltf_bytes, write_gltf
 
     data = gltf_bytes(comp, output.suffix, unit_m=unit_m, name=name, rotations=rotations)
     err = readback_error(motion, output, data)

@@ -52,7 +52,7 @@ def info_job(path: Path, *, asf: Path | None = None, rate: float | None = None, 
             }
             obj = mk
         elif kind == "table":
-            from mocapkit.io.opensim import read_table
+            from mocapkit.io.markers.opensim import read_table
 
             sig = read_table(path)
             rec = {
@@ -88,7 +88,7 @@ def info_job(path: Path, *, asf: Path | None = None, rate: float | None = None, 
 
 def packet_fields(path: Path) -> dict:
     """``info`` of a radio packet stream (.mkp): its settings, and per sensor what arrived and what was lost."""
-    from mocapkit.io.mkp import read_mkp
+    from mocapkit.jobs.readers import read_mkp
 
     pf = read_mkp(path)
     h = pf.header

@@ -27,9 +27,9 @@ _GLOB_MAGIC = ("*", "?", "[")
 
 def input_suffixes() -> tuple[str, ...]:
     """Every suffix a reader knows (lower case): skeletal, marker and OpenSim table files, and the
-    suffixes of the IMU readers' table :data:`mocapkit.io.imucsv.READERS`."""
+    suffixes of the IMU readers' table :data:`mocapkit.io.imu.signals.READERS`."""
     from mocapkit.io import loaders  # registers the OpenSim readers in READERS
-    from mocapkit.io.imucsv import READERS
+    from mocapkit.io.imu.signals import READERS
 
     return tuple(sorted({*loaders.SKELETAL_SUFFIXES, *loaders.MARKER_SUFFIXES, *loaders.TABLE_SUFFIXES,
                          *READERS}))
@@ -55,11 +55,11 @@ def _companion(name: str) -> str | None:
 def is_sensor_folder(folder: str | os.PathLike[str]) -> bool:
     """A folder of sensors in the layout of x-io's exports: only sub-folders (hidden names aside), each
     holding CSV/TXT files only, exactly one of them with orientation columns (``Quaternion.csv``; the others,
-    e.g. ``Inertial.csv``, are ignored by :func:`mocapkit.io.imucsv.read_sensor_folder`; so are an x-io
+    e.g. ``Inertial.csv``, are ignored by :func:`mocapkit.io.imu.signals.read_sensor_folder`; so are an x-io
     ``euler.csv``/``matrix.csv`` beside ``quaternion.csv``), and an NGIMU ``Session.xml`` at the top. Such a
     folder is one recording whose sensors are named after the sub-folders."""
-    from mocapkit.io.imu_sessions import SESSION_XML, drop_derived
-    from mocapkit.io.imucsv import detect_format
+    from mocapkit.io.imu.sessions import SESSION_XML, drop_derived
+    from mocapkit.io.imu.signals import detect_format
 
     try:
         entries = [e for e in os.scandir(folder) if not e.name.startswith(".")]

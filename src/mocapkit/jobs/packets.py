@@ -70,7 +70,9 @@ def compress_packets_job(path: Path, output: Path, *, max_angle: float | None, m
     """
     from mocapkit.io import load_signals
     from mocapkit.io.atomic import is_device_or_pipe
-    from mocapkit.io.mkp import Header, Sensor, delta_bound, mkp_bytes, read_mkp, write_mkp
+    from mocapkit.pla.packet_layout import Header, Sensor, delta_bound, mkp_bytes
+    from mocapkit.jobs.readers import read_mkp
+    from mocapkit.io.formats.mkp import write_mkp
     from mocapkit.pla.packets import DEFAULT_MAXLEN, check_packet_options, default_bits, packetise
     from mocapkit.quat import angular_distance
 
@@ -200,8 +202,9 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
     in ``samples_left_out``), never bridged. Several sensors go to a folder (``output``/NAME.csv)."""
     from mocapkit.io import write_signal_csv
     from mocapkit.io.atomic import atomic_write_text, is_device_or_pipe
-    from mocapkit.io.imucsv import format_row
-    from mocapkit.io.mkp import MIN_STEP, read_mkp
+    from mocapkit.io.imu.signals import format_row
+    from mocapkit.pla.packet_layout import MIN_STEP
+    from mocapkit.jobs.readers import read_mkp
 
     path, output = Path(path), Path(output)
     pf = read_mkp(path)

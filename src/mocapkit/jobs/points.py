@@ -62,8 +62,8 @@ def _mkp_columns(points: Path, header: list[str], n: int, *, need: bool) -> np.n
     indices, one per point), or ``None`` without one or when a pipe cannot be read twice and the ticks are
     not needed."""
     from mocapkit.io.atomic import is_device_or_pipe
-    from mocapkit.io.mkp import TICK_LIMIT
-    from mocapkit.io.numbers import parse_number
+    from mocapkit.io.text.numbers import parse_number
+    from mocapkit.pla.packet_layout import TICK_LIMIT
 
     col = header.index(TICK_COLUMN) if TICK_COLUMN in header else None
     gap = header.index(GAP_COLUMN) if GAP_COLUMN in header else None

@@ -18,7 +18,7 @@ Channels are named as BIDS-Motion's ``*_channels.tsv`` names them (columns ``nam
 * IMU signals (``{sensor: Signal}``): a quaternion signal gives ``ORNT`` ``quat_w..quat_z`` (``n/a``)
   tracked at the sensor, any other signal ``MISC`` channels;
 * markers: ``POS`` ``x/y/z`` per marker in the file's units (``mm``...);
-* an OpenSim table (:func:`mocapkit.io.opensim.read_table`): with ``in_degrees`` known, every column is a
+* an OpenSim table (:func:`mocapkit.io.markers.opensim.read_table`): with ``in_degrees`` known, every column is a
   ``JNTANG`` in ``deg``/``rad`` except OpenSim's translational coordinates (names ending ``_tx``, ``_ty``,
   ``_tz``), which are ``POS`` in ``m`` (OpenSim works in S.I. units); otherwise ``MISC`` ``n/a``.
 

@@ -14,7 +14,7 @@ from typing import Callable, Iterable
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError
-from mocapkit.io.streamcsv import iter_samples
+from mocapkit.io.imu.stream import iter_samples
 from mocapkit.pla import Encoder
 from mocapkit.pla.native import Points
 

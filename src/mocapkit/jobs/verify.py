@@ -110,7 +110,7 @@ def _is_tick_csv(path: Path) -> bool:
 def _read_points_csv(path: Path, name: str) -> _Points:
     """A points CSV: of ``decompress X.mkp`` (ticks, lost-packet marks) or of ``compress`` (times)."""
     if _is_tick_csv(path):
-        from mocapkit.io.timetable import read_time_table
+        from mocapkit.io.text.timetable import read_time_table
 
         tab = read_time_table(path, "points CSV")
         col = {c: tab.values[:, k] for k, c in enumerate(tab.columns)}
@@ -132,7 +132,7 @@ def _read_points_csv(path: Path, name: str) -> _Points:
 def _read_compressed_imu(compressed: Path, names: list[str]) -> tuple[dict[str, _Points], str, list[str]]:
     """``({sensor: points}, format, warnings)`` of a ``.mkp`` file, a points CSV or a folder of them."""
     if compressed.suffix.lower() == ".mkp":
-        from mocapkit.io.mkp import read_mkp
+        from mocapkit.jobs.readers import read_mkp
 
         pf = read_mkp(compressed)
         return ({n: _Points(n, s.values, ticks=s.ticks.astype(np.float64), gap_before=s.gap_before, t0=s.sensor.t0,
@@ -229,14 +229,14 @@ def _read_decoded(compressed: Path, strict: bool):
     if suffix not in SKELETAL_OUTPUTS:
         raise InvalidParameterError(f"{compressed}: a compressed skeleton is .mkc, .glb, .gltf or a decoded .bvh")
     if suffix == ".mkc":
-        from mocapkit.io.mkc_reader import read_mkc
+        from mocapkit.jobs.readers import read_mkc
 
         return read_mkc(compressed)
     if suffix in (".glb", ".gltf"):
-        from mocapkit.io.gltf import read_gltf
+        from mocapkit.io.formats.gltf import read_gltf
 
         return read_gltf(compressed)
-    from mocapkit.io.bvh import read_bvh
+    from mocapkit.io.skeletal.bvh import read_bvh
 
     return read_bvh(compressed, strict=strict)
 

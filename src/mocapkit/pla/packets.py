@@ -14,8 +14,8 @@ from typing import NamedTuple
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError
-from mocapkit.io.mkp import MAX_BITS, MAX_PACKET, MIN_BITS, MIN_PACKET, delta_bound
 from mocapkit.pla.native import C_ERRORS, _module
+from mocapkit.pla.packet_layout import MAX_BITS, MAX_PACKET, MIN_BITS, MIN_PACKET, delta_bound
 
 #: mkp.h MKP_EPS: radians kept besides delta(B) for float rounding
 EPS = 1e-6

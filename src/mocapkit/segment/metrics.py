@@ -289,7 +289,7 @@ def f1_margin(pred_cuts, ref_cuts, n: int, margin: float, intervals=None) -> F1R
         Tolerance in frames, ``>= 0``.
     intervals
         Optional ``(len(ref_cuts), 2)`` inclusive 0-based tolerance intervals ``[lo, hi]``, one per
-        reference cut in the order given (e.g. :attr:`mocapkit.io.labels.Reference.intervals`);
+        reference cut in the order given (e.g. :attr:`mocapkit.io.skeletal.labels.Reference.intervals`);
         each must contain its cut.
 
     Returns

@@ -76,7 +76,7 @@ class Points:
 def read_packets(path: Path) -> tuple[dict[str, Points], list[str]]:
     """The points of every stream of a ``.mkp`` file and the reader's losses (damaged packets are dropped by the reader and
     the points after a lost packet are marked, so the decode never bridges a gap)."""
-    from mocapkit.io.mkp import read_mkp
+    from mocapkit.jobs.readers import read_mkp
 
     pf = read_mkp(path)
     return {name: Points(name, s.ticks, s.values, s.gap_before, s.sensor.t0, s.sensor.rate,
@@ -86,7 +86,7 @@ def read_packets(path: Path) -> tuple[dict[str, Points], list[str]]:
 
 def read_points_csv(path: Path) -> tuple[dict[str, Points], list[str]]:
     """The points CSV of ``decompress`` (one sensor, named after the file)."""
-    from mocapkit.io.timetable import read_time_table
+    from mocapkit.io.text.timetable import read_time_table
 
     tab = read_time_table(path, "points CSV")
     col = {c: tab.values[:, k] for k, c in enumerate(tab.columns)}

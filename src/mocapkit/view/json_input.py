@@ -42,7 +42,7 @@ def _bad_number(doc, where: str = "") -> tuple[str, str] | None:
 
 def read_json(path: Path, what: str):
     """The parsed JSON of ``path`` (a ``what`` such as ``"segments JSON"``), its numbers checked."""
-    from mocapkit.io.textinput import decode_text, read_input
+    from mocapkit.io.text.input import decode_text, read_input
 
     text, _ = decode_text(read_input(path, what))
     try:

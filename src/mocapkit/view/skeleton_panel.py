@@ -21,13 +21,13 @@ def load_skeleton(path: Path, asf: Path | None, strict: bool, rate: float | None
 
     info = None
     if path.suffix.lower() in GLTF_SUFFIXES:
-        from mocapkit.io.gltf import read_gltf
+        from mocapkit.io.formats.gltf import read_gltf
 
         motion = read_gltf(path)
     elif path.suffix.lower() == ".mkc":  # one read of the clip: its motion and its header's bound and unit
-        from mocapkit.io.mkc_reader import Clip
+        from mocapkit.jobs.readers import open_clip
 
-        clip = Clip(path)
+        clip = open_clip(path)
         motion, info = clip.decode(), clip.info()
     else:
         motion = load_motion(path, asf=asf, rate=rate, strict=strict)

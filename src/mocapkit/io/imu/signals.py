@@ -4,12 +4,12 @@ Every reader returns :class:`mocapkit.motion.Signal` objects of kind ``"quaterni
 float64 seconds (strictly increasing, irregular sampling kept as is) and ``values`` ``(N, 4)``
 float64, scalar-first ``w, x, y, z`` exactly as written (never normalised or sign-flipped; scalar-last
 files are reordered; a rotation matrix or Euler angles are converted, see
-:mod:`mocapkit.io.imu_orientation`). Numbers follow the strict grammar of :mod:`mocapkit.io.numbers`
+:mod:`mocapkit.io.imu.orientation`). Numbers follow the strict grammar of :mod:`mocapkit.io.text.numbers`
 (no ``0_5``, no ``nan``/``inf``; orientation values within ``MAX_ABS``, clocks within ``MAX_ABS``
-seconds in their own unit, so an epoch in ns is read); see :mod:`~mocapkit.io.imu_rows`.
+seconds in their own unit, so an epoch in ns is read); see :mod:`~mocapkit.io.imu.rows`.
 
 Memory and input: a file, a FIFO or a device is read in chunks of whole lines
-(:mod:`~mocapkit.io.imu_lines`: NUL bytes, lines over 1 MiB and non-UTF-8 bytes are errors at once),
+(:mod:`~mocapkit.io.imu.lines`: NUL bytes, lines over 1 MiB and non-UTF-8 bytes are errors at once),
 the layout is found in the first :data:`MAX_HEAD_LINES` lines, and the rows go block by block into
 growing float64 arrays: the peak memory stays near the size of the returned arrays (an 800 MB
 export with a time and four quaternion columns peaks at about 1.4x its numbers;
@@ -17,14 +17,14 @@ export with a time and four quaternion columns peaks at about 1.4x its numbers;
 
 How a file is read (details in the modules named):
 
-- :mod:`~mocapkit.io.imu_columns`: the delimiter (``sep=`` line, else tab / comma / semicolon /
+- :mod:`~mocapkit.io.imu.columns`: the delimiter (``sep=`` line, else tab / comma / semicolon /
   white space by sniffing), the time column and its unit from its name (or a units row), the
   quaternion / matrix / Euler columns from their names.
-- :mod:`~mocapkit.io.imu_layout`: preamble (``//``, ``#``, ``Key:,value`` lines, read for the
+- :mod:`~mocapkit.io.imu.layout`: preamble (``//``, ``#``, ``Key:,value`` lines, read for the
   sample rate), header, units rows, first data row.
-- :mod:`~mocapkit.io.imu_vendors`: OptiTrack Motive's multi-row header; the vendor label in
+- :mod:`~mocapkit.io.imu.vendors`: OptiTrack Motive's multi-row header; the vendor label in
   ``meta["format"]``.
-- :mod:`~mocapkit.io.imu_rows`: the rows (column counts, strict finite numbers, time order and step,
+- :mod:`~mocapkit.io.imu.rows`: the rows (column counts, strict finite numbers, time order and step,
   counter wrap and step, a last line cut short).
 
 When the guess is wrong, keyword arguments (CLI flags) override it: ``time_column``
@@ -47,7 +47,7 @@ crosses zero as often as a vector part does (the x-io lower-body walk turns thro
 ``W`` changes sign while its ``Z`` keeps one sign), so no check on the numbers is made.
 
 A time column without a stated unit is checked for plausibility: a median sample interval outside
-:data:`mocapkit.io.imu_rows.PLAUSIBLE_RATE` (2 Hz to 10 kHz) is recorded in ``meta["warnings"]``
+:data:`mocapkit.io.imu.rows.PLAUSIBLE_RATE` (2 Hz to 10 kHz) is recorded in ``meta["warnings"]``
 naming the column, the rate and ``--time-unit`` (milliseconds read as seconds), never changed.
 
 Anything wrong with the content raises :class:`mocapkit.errors.MocapFormatError` naming the file and
@@ -68,12 +68,12 @@ from mocapkit.errors import (
     MocapFormatError,
 )
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.imu_columns import ColumnOptions
-from mocapkit.io.imu_layout import EXPECTED, Layout, find_layout
-from mocapkit.io.imu_lines import Block, file_blocks, open_input, text_blocks
-from mocapkit.io.imu_rows import MIN_STEP, RowReader
-from mocapkit.io.imu_sessions import drop_derived, legacy_xio_rate, missing_devices, registers_file, session_file
-from mocapkit.io.numbers import MAX_ABS
+from mocapkit.io.imu.columns import ColumnOptions
+from mocapkit.io.imu.layout import EXPECTED, Layout, find_layout
+from mocapkit.io.imu.lines import Block, file_blocks, open_input, text_blocks
+from mocapkit.io.imu.rows import MIN_STEP, RowReader
+from mocapkit.io.imu.sessions import drop_derived, legacy_xio_rate, missing_devices, registers_file, session_file
+from mocapkit.io.text.numbers import MAX_ABS
 from mocapkit.motion import Signal
 
 __all__ = [
@@ -408,7 +408,7 @@ def read_sensor_folder(path: str | Path, rate: float | None = None, *, options: 
     orientation columns (other files, such as x-io ``Inertial.csv``, are ignored), or one file per
     sensor (``*.csv``, ``*.txt``; name = file stem, ``stem/sensor`` for files holding several).
 
-    x-io files (:mod:`~mocapkit.io.imu_sessions`): an Euler or matrix file beside the quaternion file
+    x-io files (:mod:`~mocapkit.io.imu.sessions`): an Euler or matrix file beside the quaternion file
     of the same prefix is skipped; a legacy ``<prefix>_Quaternion.csv`` takes its rate from
     ``<prefix>_Registers.csv``; an NGIMU ``Session.xml`` listing devices without a sub-folder adds a
     warning naming them to every signal's ``meta["warnings"]``.
@@ -540,7 +540,7 @@ def write_signal_csv(path: str | Path, signal_times: Sequence[float] | np.ndarra
                      header: Sequence[str] = ("time", "w", "x", "y", "z")) -> None:
     """Write ``time,w,x,y,z`` CSV atomically; the numbers read back bit-exactly.
 
-    NaN, infinity and magnitudes beyond :data:`~mocapkit.io.numbers.MAX_ABS` are refused
+    NaN, infinity and magnitudes beyond :data:`~mocapkit.io.text.numbers.MAX_ABS` are refused
     (:class:`~mocapkit.errors.InvalidSignalError`): the readers would refuse the file.
 
     With the default header the file is read back by :func:`read_imu_csv` (generic format).

@@ -54,7 +54,7 @@ import pygltflib as g
 
 from mocapkit.errors import InvalidParameterError, MocapError, MocapFormatError
 from mocapkit.io.atomic import atomic_write_bytes, atomic_write_text
-from mocapkit.io.numbers import MAX_ABS
+from mocapkit.io.text.numbers import MAX_ABS
 from mocapkit.quat import hemisphere_continuous, normalize, slerp
 from mocapkit.skeleton import MAX_JOINT_FRAMES, POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
@@ -293,7 +293,7 @@ def _glb(data: bytes) -> tuple[dict, bytes]:
 
 def _load(path: Path, data: bytes | None = None) -> tuple[dict, bytes]:
     """The JSON document and buffer 0 of ``path`` (or of its bytes ``data``, already read)."""
-    from mocapkit.io.textinput import read_input
+    from mocapkit.io.text.input import read_input
 
     src = str(path)
     if data is None:

@@ -21,7 +21,7 @@
 
 APDM Motion Studio CSV (``Sample Rate:,128,Hz`` preamble, a units row under the header,
 ``<Sensor>/Orientation/Scalar|X|Y|Z``) and Shimmer Consensys CSV (``"sep=\\t"``, a ``CAL``/``RAW`` row
-and a units row under the header) need no special code: :mod:`mocapkit.io.imu_layout` reads the
+and a units row under the header) need no special code: :mod:`mocapkit.io.imu.layout` reads the
 rows under the header for the time unit and groups ``Sensor/...`` columns into one signal per sensor.
 """
 
@@ -31,7 +31,7 @@ import re
 from collections.abc import Sequence
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.imu_columns import (ColumnOptions, Orientation, find_orientations, norm, parse_rate,
+from mocapkit.io.imu.columns import (ColumnOptions, Orientation, find_orientations, norm, parse_rate,
                                      split_fields)
 
 __all__ = ["apdm7_columns", "is_apdm7", "is_optitrack", "optitrack_columns", "vendor_label"]

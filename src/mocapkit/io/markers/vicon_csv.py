@@ -23,7 +23,7 @@ The ``Devices`` block, when present, becomes ``analog``: labels ``"<device> <com
 ``values`` ``(frames x sub-frames, K)`` with ``NaN`` for empty cells, ``rate`` from its own rate
 line. Other blocks are listed in ``meta["blocks"]`` and not read.
 
-Numbers follow the strict grammar of :mod:`mocapkit.io.numbers` (no ``0_5``, ``nan`` or ``inf``);
+Numbers follow the strict grammar of :mod:`mocapkit.io.text.numbers` (no ``0_5``, ``nan`` or ``inf``);
 ``|value| > MAX_ABS`` (1e12) is refused naming the line and column; the only missing value is an
 empty cell (Nexus's gap). The rate must lie in [1e-6, 1e9] Hz. A file that ends without a newline and
 whose last line has another number of cells than the line before, or whose last value is empty or
@@ -31,7 +31,7 @@ has fewer decimals than the same column on the rows before it (cut in the middle
 an error naming the line: the file was cut short. Nexus writes 6 significant digits, so the decimals
 of a column vary and a cut inside the last value often cannot be told: then the row is read with a
 warning (``meta["warnings"]`` and :class:`~mocapkit.errors.MocapWarning`). Rows that, padded with gaps, would need far more values than the file holds are refused
-before allocation; pipes and devices are read in bounded chunks (:mod:`mocapkit.io.textinput`).
+before allocation; pipes and devices are read in bounded chunks (:mod:`mocapkit.io.text.input`).
 """
 
 from __future__ import annotations
@@ -42,8 +42,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.numbers import NUMBER_RE, parse_number
-from mocapkit.io.textinput import check_cells_budget, final_line_verdict, read_text, report_final_line
+from mocapkit.io.text.numbers import NUMBER_RE, parse_number
+from mocapkit.io.text.input import check_cells_budget, final_line_verdict, read_text, report_final_line
 from mocapkit.markers import Markers, make_unique_labels
 
 #: Range accepted for a block's rate (Hz).

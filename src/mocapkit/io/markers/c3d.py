@@ -52,8 +52,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.numbers import MAX_ABS
-from mocapkit.io.textinput import is_regular, read_input
+from mocapkit.io.text.input import is_regular, read_input
+from mocapkit.io.text.numbers import MAX_ABS
 from mocapkit.markers import Markers, make_unique_labels
 
 __all__ = ["read_c3d", "write_c3d", "check_c3d_structure", "C3DLayout"]

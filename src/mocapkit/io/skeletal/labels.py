@@ -16,7 +16,7 @@ array (synthetic data, tests).
 
 Integers are plain ASCII decimals of at most 15 digits (no ``1_0``, no other scripts' digits, nothing
 that would overflow ``int64``); a pipe or device is read in bounded chunks and a NUL byte is refused
-(:mod:`mocapkit.io.textinput`); text is UTF-8, else Latin-1.
+(:mod:`mocapkit.io.text.input`); text is UTF-8, else Latin-1.
 """
 
 from __future__ import annotations
@@ -165,7 +165,7 @@ class Reference:
 
 def _read_lines(path: str | Path) -> tuple[str, list[str]]:
     """The file's name and its lines (CRLF, LF or CR ends; a UTF-8 byte-order mark is dropped)."""
-    from mocapkit.io.textinput import decode_text, read_input
+    from mocapkit.io.text.input import decode_text, read_input
 
     src = str(Path(path))
     text, _ = decode_text(read_input(path, "label file"))

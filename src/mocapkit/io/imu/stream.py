@@ -1,6 +1,6 @@
 """Line-by-line parsing of an IMU CSV stream (``mocapkit stream`` reads stdin with it).
 
-The header is found exactly as for files (:mod:`mocapkit.io.imu_layout`: any layout with one sensor,
+The header is found exactly as for files (:mod:`mocapkit.io.imu.layout`: any layout with one sensor,
 the same overrides); the lines before the first data row are buffered, then every row is parsed and
 yielded at once (a data row is told from a units row by its time and orientation cells, so a first
 column holding a date is data; at most :data:`MAX_HEAD_LINES` lines are buffered). When the first
@@ -8,11 +8,11 @@ line is numeric, the rows are headerless ``time,w,x,y,z`` (seconds).
 Counters become times with the first counter step (a file reader uses the most frequent step).
 Blank lines are skipped, and so are the frames in which an OptiTrack rigid body is lost (empty
 cells; the file reader counts them in ``meta["warnings"]``). Every row follows the file reader's
-rules (:mod:`mocapkit.io.imu_rows`: strict finite numbers, time steps of at least 1 ns), so no
+rules (:mod:`mocapkit.io.imu.rows`: strict finite numbers, time steps of at least 1 ns), so no
 ``nan``/``inf`` or out-of-range sample is ever yielded. Lines are read with a bounded ``readline``
 (at most 1 MiB: ``/dev/zero`` or a pipe without line ends fails at once), a NUL byte or
 undecodable bytes are errors, and a last line without a line end (after lines with one) is checked
-for a number cut short by the file reader's rules (a)-(c) (:mod:`mocapkit.io.imu_rows`): an error
+for a number cut short by the file reader's rules (a)-(c) (:mod:`mocapkit.io.imu.rows`): an error
 when it ends with ``.``, ``e``, ``E``, ``+`` or ``-`` or has fewer decimals than its fixed-decimal
 column, a :class:`~mocapkit.errors.MocapWarning` (:func:`warnings.warn`; a stream has no ``meta``)
 when it is only shorter than others of a column with varying decimals. Memory stays constant: only
@@ -27,7 +27,7 @@ from collections import deque
 from collections.abc import Iterable, Iterator
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.imu_columns import (
+from mocapkit.io.imu.columns import (
     ColumnOptions,
     Orientation,
     TimeColumn,
@@ -37,9 +37,9 @@ from mocapkit.io.imu_columns import (
     sniff_delimiter,
     split_fields,
 )
-from mocapkit.io.imu_layout import Layout, find_layout
-from mocapkit.io.imu_lines import MAX_LINE_BYTES, check_line
-from mocapkit.io.imu_rows import CUT_CONTEXT, RowReader
+from mocapkit.io.imu.layout import Layout, find_layout
+from mocapkit.io.imu.lines import MAX_LINE_BYTES, check_line
+from mocapkit.io.imu.rows import CUT_CONTEXT, RowReader
 
 __all__ = ["MAX_HEAD_LINES", "iter_samples"]
 
@@ -82,7 +82,7 @@ def _headerless(line: str, delim: str | None, source: str, lineno: int, rate: fl
 
 def _bounded(lines: Iterable[str], source: str) -> Iterator[str]:
     """The lines of ``lines``; a file object is read with ``readline(limit)`` so that no line (e.g. from
-    ``/dev/zero`` or a pipe without line ends) is read beyond :data:`~mocapkit.io.imu_lines.MAX_LINE_BYTES`."""
+    ``/dev/zero`` or a pipe without line ends) is read beyond :data:`~mocapkit.io.imu.lines.MAX_LINE_BYTES`."""
     readline = getattr(lines, "readline", None)
     if readline is None:
         yield from lines
@@ -118,7 +118,7 @@ def iter_samples(
 
     ``lines``: a text file object (read with a bounded ``readline``) or any iterable of lines.
     ``columns``: ``time_column``, ``quaternion_columns``, ``scalar_last``, ``time_unit`` (or one
-    :class:`~mocapkit.io.imu_columns.ColumnOptions` as ``options``).
+    :class:`~mocapkit.io.imu.columns.ColumnOptions` as ``options``).
     """
     opts = options if options is not None else ColumnOptions(
         **{k: v for k, v in columns.items() if v is not None and v is not False})

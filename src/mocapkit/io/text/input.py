@@ -8,7 +8,7 @@
   decoding never fails.
 
 End of file. A last line written without a newline may be a copy cut short. Its last value ``X`` is
-judged against the same column on the rows before it (:func:`mocapkit.io.numbers.cut_kind`):
+judged against the same column on the rows before it (:func:`mocapkit.io.text.numbers.cut_kind`):
 
 (a) ``X`` ends with ``.``, ``e``, ``E``, ``+`` or ``-`` (``0.`` for ``0.4``): cut, an error (a ``.`` only
     when no earlier value of the column ends with one);
@@ -24,8 +24,8 @@ judged against the same column on the rows before it (:func:`mocapkit.io.numbers
 :func:`cut_cell` applies (a)-(c) to a row (the IMU readers), :func:`final_line_verdict` and
 :func:`report_final_line` do it for the marker and table readers (which also warn, under (c), for any
 last value of a column with varying decimals that they cannot check). The AMC reader applies
-:func:`mocapkit.io.numbers.cut_kind` itself (an error under (a), a warning under (b) and (c)) and the BVH
-reader :func:`mocapkit.io.numbers.looks_cut` (a warning).
+:func:`mocapkit.io.text.numbers.cut_kind` itself (an error under (a), a warning under (b) and (c)) and the BVH
+reader :func:`mocapkit.io.text.numbers.looks_cut` (a warning).
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.numbers import NUMBER_RE, cut_kind
+from mocapkit.io.text.numbers import NUMBER_RE, cut_kind
 
 __all__ = ["MAX_STREAM_BYTES", "MAX_HEADER_LINE", "open_error", "read_input", "decode_text", "read_text",
            "split_lines", "cut_cell", "short_value_note", "final_line_verdict",

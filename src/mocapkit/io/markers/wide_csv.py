@@ -18,8 +18,8 @@ import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.numbers import parse_number
-from mocapkit.io.textinput import check_cells_budget, final_line_verdict, read_input, report_final_line
+from mocapkit.io.text.input import check_cells_budget, final_line_verdict, read_input, report_final_line
+from mocapkit.io.text.numbers import parse_number
 from mocapkit.markers import Markers
 
 __all__ = ["marker_csv_header", "read_markers_csv", "write_markers_csv"]
@@ -63,7 +63,7 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str | N
     that does not state it (default ``"mm"``, recorded as an assumption in ``meta["warnings"]``) and
     must agree with the header when both exist.
 
-    Numbers follow the strict grammar of :mod:`mocapkit.io.numbers` (``nan``/``NaN``/empty are the
+    Numbers follow the strict grammar of :mod:`mocapkit.io.text.numbers` (``nan``/``NaN``/empty are the
     only missing spellings; ``inf``, ``0_5`` and ``|value| > 1e12`` are errors naming line and column).
     A last line written without a newline whose last value has fewer decimals than that column on
     the rows before it is an error (the file was cut short); when that cannot be told (``repr``

@@ -24,7 +24,7 @@ Anything malformed raises :class:`~mocapkit.errors.MocapFormatError` with the fi
 line (``None`` when the problem concerns the whole file).
 
 Numbers (ASF lengths, directions, axis angles, limits, units; AMC values) follow the strict grammar
-of :mod:`mocapkit.io.numbers`: no ``0_5``, no ``nan``, no ``inf`` (neither format has a missing-value
+of :mod:`mocapkit.io.text.numbers`: no ``0_5``, no ``nan``, no ``inf`` (neither format has a missing-value
 convention; the one exception is the Acclaim ``(-inf inf)`` of ASF ``limits``, meaning no limit), and
 ``|value| <= MAX_ABS``; the error names the line and the field (``bone lfemur``, ``length``).
 ``:units length`` must lie in ``[1e-6, 1e6]`` and the frame rate in ``[1e-6, 1e6]`` Hz. The hierarchy
@@ -38,7 +38,7 @@ last value ending with ``.``, ``e``, ``E``, ``+`` or ``-`` (``-4.`` for ``-4.298
 line with the right count whose last value has fewer decimals (or exponent digits) than that value in
 every one of the up to 100 earlier lines of the bone (``-0`` for ``-0.124044``) or, the values being
 written with varying decimals (``%g``, as the CMU files), fewer significant characters than the
-longest of them (``-4.2989`` for ``-4.29897``; see :func:`mocapkit.io.numbers.cut_kind`) is read with a
+longest of them (``-4.2989`` for ``-4.29897``; see :func:`mocapkit.io.text.numbers.cut_kind`) is read with a
 warning (``Motion.meta["warnings"]`` and :func:`warnings.warn`, category
 :class:`~mocapkit.errors.MocapWarning`). Line ends (LF, CRLF, CR) make no difference.
 
@@ -104,7 +104,7 @@ from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapError, MocapFormatError, MocapWarning
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.numbers import MAX_ABS, cut_kind, parse_number
+from mocapkit.io.text.numbers import MAX_ABS, cut_kind, parse_number
 from mocapkit.quat import from_scipy, multiply, to_scipy
 from mocapkit.skeleton import MAX_JOINT_FRAMES, Motion, Skeleton
 
@@ -152,7 +152,7 @@ def _short(text: str, limit: int = 60) -> str:
 
 
 def _read_bytes(path: str | Path) -> tuple[str, bytes]:
-    from mocapkit.io.textinput import read_input
+    from mocapkit.io.text.input import read_input
 
     return str(Path(path)), read_input(path, "text file")
 
@@ -183,7 +183,7 @@ def _check_text(src: str, ln: int, line: str) -> None:
 
 
 def _number(src: str, ln: int, tok: str, what: str, allow_inf: bool = False) -> float:
-    """One value by the strict grammar of :mod:`mocapkit.io.numbers` (``|v| <= MAX_ABS``); ``inf``
+    """One value by the strict grammar of :mod:`mocapkit.io.text.numbers` (``|v| <= MAX_ABS``); ``inf``
     spelled out only where ``allow_inf`` (ASF limits: the Acclaim ``(-inf inf)`` convention)."""
     word = tok.lower().lstrip("+-")
     if word == "nan":
@@ -898,7 +898,7 @@ def _report_value(src: str, lines: list[str], frame_line: int, bone: str) -> Non
 def _cut_note(lines: list[str], last: int, ndof: dict[str, int]) -> tuple[str, str] | None:
     """``(kind, note)`` when the file's last line (no final newline) is a bone line whose last value looks
     cut short against the same value in the up to 100 earlier lines of that bone
-    (:func:`mocapkit.io.numbers.cut_kind`: ``"end"`` for ``-4.``, ``"shorter"``/``"short"`` for a value
+    (:func:`mocapkit.io.text.numbers.cut_kind`: ``"end"`` for ``-4.``, ``"shorter"``/``"short"`` for a value
     shorter than those lines)."""
     toks = lines[last - 1].split("#", 1)[0].split()
     if len(toks) < 2 or ndof.get(toks[0]) != len(toks) - 1:

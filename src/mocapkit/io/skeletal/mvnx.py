@@ -54,7 +54,7 @@ Model mapping
 Numbers and sizes
 -----------------
 Numbers (element text and the ``frameRate``/``time``/``index`` attributes) follow the strict grammar
-of :mod:`mocapkit.io.numbers`: no ``nan``/``inf`` (MVNX has no missing-value convention), no ``0_5``,
+of :mod:`mocapkit.io.text.numbers`: no ``nan``/``inf`` (MVNX has no missing-value convention), no ``0_5``,
 ``|value| > MAX_ABS`` (1e12) refused, each error naming the line, the element and the segment and
 component (``<orientation> of segment 'Pelvis' q0``). ``frameRate`` must lie in [1e-6, 1e9] Hz.
 Declared counts (``segmentCount``...) size nothing: memory follows the frames actually read. A pipe
@@ -70,9 +70,9 @@ from xml.parsers import expat
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.numbers import MAX_ABS, parse_number
-from mocapkit.io import textinput
-from mocapkit.io.textinput import is_regular
+from mocapkit.io.text.numbers import MAX_ABS, parse_number
+from mocapkit.io.text import input as textinput
+from mocapkit.io.text.input import is_regular
 from mocapkit.quat import multiply
 from mocapkit.skeleton import Motion, Skeleton, quat_to_matrix
 

@@ -1,4 +1,5 @@
-"""The ``.mkc`` clip container: header, blocks, checksums (the codec itself is :mod:`mocapkit.clip`).
+"""The ``.mkc`` clip container as bytes: preamble, header, block table, checksums (a block's payload is
+:mod:`mocapkit.clip.codec`; reading and writing the file is :mod:`mocapkit.io.formats.mkc`).
 
 Layout (little-endian; the full specification is ``docs/mkc.md``)::
 
@@ -16,19 +17,19 @@ Layout (little-endian; the full specification is ``docs/mkc.md``)::
 ``[first_frame, n_frames, stored_length, raw_length, crc32]``; blocks are contiguous in frame order
 and cover all frames. A reader that wants one block (random access) checks the header's CRC, the file
 size and that block's CRC; a reader of the whole clip also checks the final CRC. Any mismatch,
-truncation or malformed field is a :class:`~mocapkit.errors.MocapFormatError` naming the file.
+truncation or malformed field is a :class:`~mocapkit.errors.MocapFormatError` naming the file (the name
+the caller gives with the bytes: this module opens no file).
 """
 
 from __future__ import annotations
 
 import json
+import os
 import struct
 import zlib
 from dataclasses import dataclass
-from pathlib import Path
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.atomic import atomic_write_bytes
 
 MAGIC = b"MKC\x00"
 VERSION = 1
@@ -62,10 +63,6 @@ def mkc_bytes(header: dict, blocks: list[tuple[int, int, int, bytes]]) -> bytes:
         out += b
     out += struct.pack("<I", zlib.crc32(out))
     return bytes(out)
-
-
-def write_mkc(path: str | Path, data: bytes) -> None:
-    atomic_write_bytes(path, data)
 
 
 def _int(v, what: str, where: str, lo: int = 0) -> int:
@@ -127,15 +124,11 @@ def _no_constant(name: str):
 
 
 class ClipFile:
-    """An open ``.mkc`` file: the checked header and block table, blocks read on demand."""
+    """A clip's bytes: the checked header and block table, blocks handed out on demand. ``name`` (a file's
+    path, or any label) only names the clip in errors."""
 
-    def __init__(self, path: str | Path, *, data: bytes | None = None) -> None:
-        self.path = str(path)
-        if data is None:
-            try:
-                data = Path(path).read_bytes()
-            except OSError as e:
-                raise MocapFormatError(self.path, None, f"cannot read: {e.strerror or e}") from None
+    def __init__(self, name: str | os.PathLike, *, data: bytes) -> None:
+        self.path = str(name)
         self._data = data
         pos = [PREAMBLE.size]
 

@@ -15,7 +15,7 @@ line):
 
 A UTF-8 byte-order mark at the start is dropped; ``\\r\\n`` line ends become ``\\n``. A block says
 whether the input ends with it and whether its last line had a line end (a file that stops without
-one may have been cut short: see :mod:`mocapkit.io.imu_rows`).
+one may have been cut short: see :mod:`mocapkit.io.imu.rows`).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import BinaryIO
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.textinput import open_error
+from mocapkit.io.text.input import open_error
 
 __all__ = ["CHUNK_BYTES", "MAX_LINE_BYTES", "Block", "check_line", "file_blocks", "open_input", "text_blocks"]
 

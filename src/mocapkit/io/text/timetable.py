@@ -5,13 +5,13 @@ This is what ``mocapkit filter`` reads when its input is neither a marker file n
 - Line 1 is a header: at least two cells, the first naming the time column (a number there means the
   file has no header, and is refused from the first chunk, so an endless pipe fails at once).
 - Every other non-blank line has as many cells as the header. Numbers follow the strict grammar of
-  :mod:`mocapkit.io.numbers`; a value cell may be empty or ``nan``/``NaN`` (a missing sample), a time
+  :mod:`mocapkit.io.text.numbers`; a value cell may be empty or ``nan``/``NaN`` (a missing sample), a time
   cell may not. Times are strictly increasing.
 - A file that ends without a newline has its last row judged against the rows above it
-  (:func:`~mocapkit.io.textinput.final_line_verdict`): a cut value is an error, an undecidable one a
+  (:func:`~mocapkit.io.text.input.final_line_verdict`): a cut value is an error, an undecidable one a
   warning.
-- Input is read with :func:`~mocapkit.io.textinput.read_input` (a pipe or device in bounded chunks up
-  to :data:`~mocapkit.io.textinput.MAX_STREAM_BYTES`); rows are parsed one at a time into one
+- Input is read with :func:`~mocapkit.io.text.input.read_input` (a pipe or device in bounded chunks up
+  to :data:`~mocapkit.io.text.input.MAX_STREAM_BYTES`); rows are parsed one at a time into one
   preallocated ``float64`` array (no list of lines or of rows is built), after checking that the row
   count times the column count fits the file's size.
 """
@@ -25,8 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.numbers import NUMBER_RE, parse_number
-from mocapkit.io.textinput import (
+from mocapkit.io.text.input import (
     MAX_HEADER_LINE,
     check_cells_budget,
     decode_text,
@@ -34,6 +33,7 @@ from mocapkit.io.textinput import (
     read_input,
     report_final_line,
 )
+from mocapkit.io.text.numbers import NUMBER_RE, parse_number
 
 __all__ = ["TimeTable", "read_time_table"]
 

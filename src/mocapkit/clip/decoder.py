@@ -1,9 +1,10 @@
-"""Read a ``.mkc`` clip: the whole motion, or one instant (random access by block).
+"""Decode a ``.mkc`` clip's bytes: the whole motion, or one instant (random access by block).
 
-:class:`Clip` checks the container (:mod:`mocapkit.io.mkc`) and the header's fields, then decodes
+:class:`Clip` checks the container (:mod:`mocapkit.clip.container`) and the header's fields, then decodes
 blocks on demand: :meth:`Clip.decode` decodes every block (and checks the file's final checksum);
 :meth:`Clip.pose_at` decodes only the block(s) holding the instant asked for — the cost a game runtime
-pays per pose — and keeps the last few decoded blocks, so playback reads each block once.
+pays per pose — and keeps the last few decoded blocks, so playback reads each block once. It opens no
+file: ``mocapkit.jobs.readers`` reads one (:mod:`mocapkit.io.formats.mkc`) and decodes it here.
 """
 
 from __future__ import annotations
@@ -13,14 +14,13 @@ import os
 import re
 from collections import OrderedDict
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
 
 import numba
 import numpy as np
 
+from mocapkit.clip.codec import entropy_decode, steps_table, unpack_block, unpack_pose
+from mocapkit.clip.container import BOUND_METRICS, ClipFile
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.mkc import BOUND_METRICS, ClipFile
-from mocapkit.io.mkc_codec import entropy_decode, steps_table, unpack_block, unpack_pose
 from mocapkit.rotvec import exp_into
 from mocapkit.skeleton import MAX_JOINT_FRAMES, POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
@@ -39,10 +39,11 @@ _BAD_NAME = re.compile(r"[\s{}]")  # a BVH joint name is one token without brace
 
 
 class Clip:
-    """A decoded clip header with lazy blocks. ``Clip(path)`` or ``Clip(path, data=bytes)``."""
+    """A decoded clip header with lazy blocks: ``Clip(name, data=bytes)``; ``name`` (the file's path, or
+    any label) names the clip in errors."""
 
-    def __init__(self, path: str | Path, *, data: bytes | None = None) -> None:
-        self.file = ClipFile(path, data=data)
+    def __init__(self, name: str | os.PathLike, *, data: bytes) -> None:
+        self.file = ClipFile(name, data=data)
         self.path = self.file.path
         h = self.file.header
         self.header = h
@@ -303,11 +304,6 @@ class Clip:
                 "duration_s": float(self.times[-1] - self.times[0]), "unit_cm": self.unit_cm,
                 "blocks": len(self.file.blocks), "tracks": classes, "bound": h.get("bound"),
                 "keyframes": h.get("keyframes"), "source": h.get("source")}
-
-
-def read_mkc(path: str | Path) -> Motion:
-    """The decoded motion of a ``.mkc`` clip (every checksum checked)."""
-    return Clip(path).decode()
 
 
 @numba.njit(cache=True, nogil=True)

@@ -6,9 +6,9 @@ as a name, joint names with ``:`` or ``.``, numbers glued together (``0.0-7.5``)
 newline. A ``Frames:`` count that disagrees with the data is an error, or with ``strict=False`` the
 data rows are taken and the discrepancy is recorded in ``motion.meta["warnings"]``.
 
-Numbers follow the strict grammar of :mod:`mocapkit.io.numbers` (sign, digits, one point, exponent;
+Numbers follow the strict grammar of :mod:`mocapkit.io.text.numbers` (sign, digits, one point, exponent;
 no ``0_5``, no ``nan``/``inf``: BVH has no missing-value convention) and ``|value| <=``
-:data:`~mocapkit.io.numbers.MAX_ABS`; an error names the line and the field (``OFFSET y of joint
+:data:`~mocapkit.io.text.numbers.MAX_ABS`; an error names the line and the field (``OFFSET y of joint
 LeftArm``, ``frame 12, Zrotation of joint Hips``). ``Frame Time`` must lie in ``[1e-6, 1e6]`` s (a rate
 of at most 1 MHz and at least one frame in 11.6 days). The frame block is validated in bulk (one
 character-class scan, then NumPy's C parser, whose accepted spelling over those characters is
@@ -48,8 +48,8 @@ from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError, MocapWarning
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.numbers import MAX_ABS, NUMBER_RE, looks_cut, parse_number
-from mocapkit.io.textinput import read_input
+from mocapkit.io.text.numbers import MAX_ABS, NUMBER_RE, looks_cut, parse_number
+from mocapkit.io.text.input import read_input
 from mocapkit.quat import to_scipy
 from mocapkit.skeleton import MAX_JOINT_FRAMES, POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 

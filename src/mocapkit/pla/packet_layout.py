@@ -1,8 +1,10 @@
-"""The ``.mkp`` radio packet stream: segment points of IMU orientation streams as they went over the radio.
+"""The ``.mkp`` radio packet stream as bytes: segment points of IMU orientation streams as they went over the radio.
 
 The packets are made on the sensor by the C packetiser (``c/mkpla/mkp.c``); this module defines the
-smallest-three quantisation's decoding and error bound, parses packets and reads/writes the file
-container. The full specification is ``docs/mkp.md``. File layout (little-endian)::
+smallest-three quantisation's decoding and error bound, parses packets and makes and decodes the file's
+bytes (:func:`mkp_bytes`, :func:`decode_mkp`). It opens no file: :mod:`mocapkit.io.formats.mkp` reads and
+writes one, ``mocapkit.jobs.readers.read_mkp`` joins reading and decoding. The full specification is
+``docs/mkp.md``. File layout (little-endian)::
 
     offset  size  field
     0       4     magic b"MKP\\0"
@@ -39,13 +41,11 @@ import math
 import struct
 import zlib
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.atomic import atomic_write_bytes
-from mocapkit.io.numbers import MAX_ABS
+from mocapkit.motion import MAX_ABS
 
 MAGIC = b"MKP\x00"
 VERSION = 1
@@ -56,7 +56,7 @@ MAX_POINTS = 127
 _FIXED = struct.Struct("<4sBBBBdI")
 _SENSOR = struct.Struct("<dd")
 TICK_LIMIT = 1 << 32
-#: a sensor's rate in Hz, as the text readers accept it (``imu_columns.RATE_RANGE``)
+#: a sensor's rate in Hz, as the text readers accept it (``io.imu.columns.RATE_RANGE``)
 RATE_RANGE = (1e-6, 1e9)
 #: the encoder's maximum segment length, samples (``pla.packets.packetise`` accepts 1..2^20)
 SEGMENT_LENGTH_RANGE = (1, 1 << 20)
@@ -274,10 +274,6 @@ def mkp_bytes(header: Header, packets: list[bytes]) -> bytes:
     return bytes(out)
 
 
-def write_mkp(path: str | Path, data: bytes) -> None:
-    atomic_write_bytes(path, data)
-
-
 def _parse_header(data: bytes, where: str) -> tuple[Header, int]:
     if len(data) < _FIXED.size + 4:
         raise MocapFormatError(where, None, f"not a mocapkit packet file: {len(data)} bytes, shorter than its header")
@@ -411,14 +407,9 @@ def parse_packet(pkt: bytes, bits: int) -> _Packet:
     return _Packet(sensor, seq, last, ticks, codes)
 
 
-def read_mkp(path: str | Path, *, data: bytes | None = None) -> PacketFile:
-    """Read a ``.mkp`` file: every sensor's points that arrived, the damaged and lost packets."""
-    where = str(path)
-    if data is None:
-        try:
-            data = Path(path).read_bytes()
-        except OSError as e:
-            raise MocapFormatError(where, None, f"cannot read: {e.strerror or e}") from None
+def decode_mkp(data: bytes, where: str) -> PacketFile:
+    """Decode a ``.mkp`` file's bytes: every sensor's points that arrived, the damaged and lost packets;
+    ``where`` (the file's path, or any label) names the file in errors."""
     header, pos = _parse_header(data, where)
     bits = header.bits
     m = (1 << bits) - 1

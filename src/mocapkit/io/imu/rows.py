@@ -2,8 +2,8 @@
 
 Every problem raises :class:`~mocapkit.errors.MocapFormatError` naming the file, the 1-based line
 and the column: a wrong column count (trailing delimiters and empty extra cells are ignored), a
-cell that is not a number by the strict grammar of :mod:`mocapkit.io.numbers` (``0_5``, ``1..2``,
-text), NaN or infinity, a value beyond :data:`~mocapkit.io.numbers.MAX_ABS` in an orientation
+cell that is not a number by the strict grammar of :mod:`mocapkit.io.text.numbers` (``0_5``, ``1..2``,
+text), NaN or infinity, a value beyond :data:`~mocapkit.io.text.numbers.MAX_ABS` in an orientation
 column (quaternion component, matrix entry, angle), a zero quaternion, an empty line inside the
 data, a duplicate or decreasing time, or a time step below :data:`MIN_STEP` (a rate above 1 GHz,
 which would make the rate infinite or absurd). Time columns may hold raw epoch counters (ns since
@@ -16,7 +16,7 @@ missing-value convention, so an empty, ``nan`` or ``inf`` cell is an error there
 
 A file whose last line has no line end may have been cut short: a different number of fields on
 that line is an error (the message says so). Its last value is judged against the same column on
-the (up to) 20 rows before it (:func:`mocapkit.io.textinput.cut_cell`; with one row before it,
+the (up to) 20 rows before it (:func:`mocapkit.io.text.input.cut_cell`; with one row before it,
 rule (a) alone decides and (b) or (c) only give a warning: one row cannot tell a fixed-decimal column
 from a varying one):
 
@@ -46,7 +46,7 @@ A time column whose unit was guessed (a unit-less ``time``, read as seconds unle
 it an epoch) is checked for plausibility: a median sample interval giving a rate outside
 :data:`PLAUSIBLE_RATE` is recorded in ``meta["warnings"]`` (the data are kept as read).
 
-Speed and memory: a block of lines (:mod:`mocapkit.io.imu_lines`) whose used cells hold only digits,
+Speed and memory: a block of lines (:mod:`mocapkit.io.imu.lines`) whose used cells hold only digits,
 signs, points and exponents, with the right number of delimiters on every line, is converted in one
 ``numpy.loadtxt`` call and checked with array operations; the values go straight into growing float64
 arrays (one for the times, one ``(N, 4)`` per sensor), so the peak memory stays near the size of the
@@ -65,12 +65,12 @@ from collections.abc import Sequence
 import numpy as np
 
 from mocapkit.errors import MocapFormatError, MocapWarning
-from mocapkit.io.imu_columns import TIME_UNITS
-from mocapkit.io.imu_layout import Layout
-from mocapkit.io.imu_lines import check_line
-from mocapkit.io.imu_orientation import euler_note, matrices_to_quaternions, matrix_note, quaternions_from_euler
-from mocapkit.io.numbers import CUT_ENDINGS, MAX_ABS, NUMBER_RE, parse_number
-from mocapkit.io.textinput import cut_cell, short_value_note
+from mocapkit.io.imu.columns import TIME_UNITS
+from mocapkit.io.imu.layout import Layout
+from mocapkit.io.imu.lines import check_line
+from mocapkit.io.imu.orientation import euler_note, matrices_to_quaternions, matrix_note, quaternions_from_euler
+from mocapkit.io.text.numbers import CUT_ENDINGS, MAX_ABS, NUMBER_RE, parse_number
+from mocapkit.io.text.input import cut_cell, short_value_note
 
 __all__ = ["COUNTER_LIMIT", "MAX_BLANK_LINES", "MIN_STEP", "PLAUSIBLE_RATE", "TIME_LIMIT", "RowReader"]
 
@@ -203,7 +203,7 @@ class RowReader:
     # one cell
     # ---------------------------------------------------------------------------------------------
     def _number(self, text: str, ln: int, name: str, limit: float) -> float:
-        """A cell by the strict grammar (:mod:`mocapkit.io.numbers`), finite and within ``limit``."""
+        """A cell by the strict grammar (:mod:`mocapkit.io.text.numbers`), finite and within ``limit``."""
         if _fullmatch(text):
             v = float(text)
             if abs(v) <= limit:

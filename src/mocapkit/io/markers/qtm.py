@@ -34,7 +34,7 @@ Layout of the file (tab-separated, one field a cell)::
   coordinates are all exactly 0 is therefore missing (``NaN``), and so is a marker whose three cells
   are empty (nothing else can be meant). One or two empty coordinates, an empty frame or time cell,
   and any other spelling (``nan``, ``inf``...) are errors.
-* Numbers follow the strict grammar of :mod:`mocapkit.io.numbers` (no ``0_5``); ``|value| >
+* Numbers follow the strict grammar of :mod:`mocapkit.io.text.numbers` (no ``0_5``); ``|value| >
   MAX_ABS`` (1e12) is refused. Errors name the line and the field (``Frame``, ``Time`` or
   ``<marker> X/Y/Z``).
 * ``times`` come from the ``Time`` column as written (QTM rounds it, e.g. to 1e-5 s); each is checked
@@ -67,7 +67,7 @@ Damaged and hostile files (all errors, before any large allocation):
   the column's decimals vary so that a cut cannot be told, the row is read with a warning
   (``meta["warnings"]`` and :class:`~mocapkit.errors.MocapWarning`);
 * a pipe or device is read in bounded chunks and a NUL byte is refused
-  (:mod:`mocapkit.io.textinput`).
+  (:mod:`mocapkit.io.text.input`).
 """
 
 from __future__ import annotations
@@ -79,8 +79,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.numbers import MAX_ABS, parse_number
-from mocapkit.io.textinput import MAX_HEADER_LINE, decode_text, final_line_verdict, read_input, report_final_line
+from mocapkit.io.text.numbers import MAX_ABS, parse_number
+from mocapkit.io.text.input import MAX_HEADER_LINE, decode_text, final_line_verdict, read_input, report_final_line
 from mocapkit.markers import Markers, make_unique_labels
 
 __all__ = ["read_qtm_tsv", "read_qtm_tsv_text", "REQUIRED_FIELDS"]

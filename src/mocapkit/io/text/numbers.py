@@ -12,7 +12,7 @@ different numbers without a word. Readers parse tokens here instead:
   (``1e308`` offsets gave ``inf``/``nan`` errors that then reported "success").
 
 The last value of a file that ends without a newline may have been cut short by a truncated copy;
-:func:`cut_kind` tells how it looks against the values above it (see :mod:`mocapkit.io.textinput`
+:func:`cut_kind` tells how it looks against the values above it (see :mod:`mocapkit.io.text.input`
 for the rule the readers apply).
 """
 
@@ -24,10 +24,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from mocapkit.errors import MocapFormatError
-
-MAX_ABS = 1e12
-"""Largest magnitude accepted for any coordinate, angle, quaternion component or time (squares and
-sums of up to 1e6 such values stay far below float64's 1.8e308)."""
+from mocapkit.motion import MAX_ABS  # the model's limit on any value read (re-exported: readers import it here)
 
 NUMBER_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)  # ASCII: no other digits
 _fullmatch = NUMBER_RE.fullmatch

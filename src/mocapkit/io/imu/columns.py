@@ -2,7 +2,7 @@
 orientation columns, all found from the names the file gives them.
 
 Nothing here reads numbers beyond the first data row (needed to tell an empty column from a used
-one and to read the magnitude of a unit-less ``time``); :mod:`mocapkit.io.imu_rows` parses the rows.
+one and to read the magnitude of a unit-less ``time``); :mod:`mocapkit.io.imu.rows` parses the rows.
 
 Time columns (``name -> unit``; an explicit ``(us)``/``[ms]``/``_ns`` suffix or a units row under the
 header always wins):
@@ -18,7 +18,7 @@ header always wins):
                                                              1e9–4e9 s (ms, µs or ns; recorded),
                                                              else an error naming --time-unit;
                                                              a rate outside 2 Hz-10 kHz is warned
-                                                             of (:mod:`~mocapkit.io.imu_rows`)
+                                                             of (:mod:`~mocapkit.io.imu.rows`)
 ``elapsed (s)``, ``seconds_elapsed``                         s (used only when no other clock)
 ``PacketCounter``, ``Counter`` (uint16, wraps), ``Packet     a counter: needs a rate (file or
 number``, ``Frame``, ``Sample number``                       ``--rate``)
@@ -41,7 +41,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from mocapkit.errors import InvalidParameterError, MocapFormatError
-from mocapkit.io.numbers import NUMBER_RE
+from mocapkit.io.text.numbers import NUMBER_RE
 
 __all__ = [
     "classify_time",
@@ -259,7 +259,7 @@ RATE_RANGE = (1e-6, 1e9)
 
 def parse_rate(value: str) -> float | None:
     """A rate in Hz within :data:`RATE_RANGE` written by the strict number grammar
-    (:mod:`mocapkit.io.numbers`: no ``1_00``, ``nan``, ``inf``), or ``None``."""
+    (:mod:`mocapkit.io.text.numbers`: no ``1_00``, ``nan``, ``inf``), or ``None``."""
     v = value.strip()
     if not NUMBER_RE.fullmatch(v):
         return None

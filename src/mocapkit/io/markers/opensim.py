@@ -41,13 +41,13 @@ free text (``Angles are in degrees.`` in old files). Then a tab-separated column
   :func:`read_orientations` returns ``{imu name: Signal}`` of kind ``"quaternion"``.
 
 :func:`read_opensim_signals` reads either as ``{name: Signal}`` (the reader registered for ``.sto``
-and ``.mot`` in :data:`mocapkit.io.imucsv.READERS`). :func:`write_table` and
+and ``.mot`` in :data:`mocapkit.io.imu.signals.READERS`). :func:`write_table` and
 :func:`write_orientations` write them back (numbers as ``repr`` unless ``decimals`` is given).
 ``nRows``/``nColumns`` disagreeing with the rows are recorded in ``meta["warnings"]``.
 
 Damaged and hostile files
 -------------------------
-* Numbers follow the strict grammar of :mod:`mocapkit.io.numbers` (no ``0_5``, no ``inf``);
+* Numbers follow the strict grammar of :mod:`mocapkit.io.text.numbers` (no ``0_5``, no ``inf``);
   ``|value| > MAX_ABS`` (1e12) is refused with the line and the column (``<marker> X`` in a TRC,
   the column name in a MOT/STO). The only missing-value spellings are those of the formats: an
   empty cell or ``NaN`` in a TRC (a gap); none in a MOT/STO (an error).
@@ -63,7 +63,7 @@ Damaged and hostile files
   was cut short (delete that line to read the rest). When the column's decimals vary (``repr``
   writers) so that a cut cannot be told, the row is read with a warning (``meta["warnings"]`` and
   :class:`~mocapkit.errors.MocapWarning`).
-* Pipes and devices are read in bounded chunks; a NUL byte is refused (:mod:`mocapkit.io.textinput`).
+* Pipes and devices are read in bounded chunks; a NUL byte is refused (:mod:`mocapkit.io.text.input`).
 """
 
 from __future__ import annotations
@@ -76,8 +76,8 @@ import numpy as np
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.numbers import parse_number
-from mocapkit.io.textinput import (MAX_HEADER_LINE, check_cells_budget, final_line_verdict, is_regular, read_text,
+from mocapkit.io.text.numbers import parse_number
+from mocapkit.io.text.input import (MAX_HEADER_LINE, check_cells_budget, final_line_verdict, is_regular, read_text,
                                   report_final_line)
 from mocapkit.markers import Markers, make_unique_labels
 from mocapkit.motion import Signal
@@ -134,7 +134,7 @@ def _count(v: str) -> int | None:
 
 def _check_cut(rows: list[list[str]], last: list[str], src: str, line: int, names: list[str],
                warnings: list[str]) -> None:
-    """Judge a last line written without a newline (:func:`mocapkit.io.textinput.final_line_verdict`):
+    """Judge a last line written without a newline (:func:`mocapkit.io.text.input.final_line_verdict`):
     an error when it is evidently cut short, a warning when that cannot be told."""
     verdict, j = final_line_verdict(rows, last)
     name = (names[j] if j < len(names) else f"column {j + 1}") if j is not None else "the last value"

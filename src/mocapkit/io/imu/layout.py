@@ -2,12 +2,12 @@
 the delimiter, the stated sample rate, and which columns hold time and orientation.
 
 The header is the first line in which orientation columns are found (see
-:mod:`mocapkit.io.imu_columns`). Lines before it are the preamble: blank lines, an Excel ``sep=X``
+:mod:`mocapkit.io.imu.columns`). Lines before it are the preamble: blank lines, an Excel ``sep=X``
 line, comments (``//``, ``#``), ``Key:,value`` metadata (read for a sample rate). Rows right
 under the header with no number in their time and orientation cells (at most
 :data:`MAX_DESCRIPTOR_ROWS`: units, ``CAL``/``RAW``) are read for the time unit and listed in the
 warnings; a row with a date or text in another column (``Date``, ``loggingTime(txt)``) is data.
-OptiTrack's and APDM ``Format=7``'s multi-row headers are handled by :mod:`mocapkit.io.imu_vendors`.
+OptiTrack's and APDM ``Format=7``'s multi-row headers are handled by :mod:`mocapkit.io.imu.vendors`.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.imu_columns import (
+from mocapkit.io.imu.columns import (
     ColumnOptions,
     Orientation,
     TimeColumn,
@@ -34,7 +34,7 @@ from mocapkit.io.imu_columns import (
     sniff_delimiter,
     split_fields,
 )
-from mocapkit.io.imu_vendors import apdm7_columns, is_apdm7, is_optitrack, optitrack_columns, vendor_label
+from mocapkit.io.imu.vendors import apdm7_columns, is_apdm7, is_optitrack, optitrack_columns, vendor_label
 
 __all__ = ["EXPECTED", "Layout", "MAX_DESCRIPTOR_ROWS", "find_layout"]
 

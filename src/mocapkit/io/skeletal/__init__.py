@@ -1,0 +1,1 @@
+"""Skeletal motion files: BVH, ASF/AMC, Xsens MVNX, and the action labels of a take."""
