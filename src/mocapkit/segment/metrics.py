@@ -144,7 +144,7 @@ def segments_from_cuts(cuts, n: int) -> list[tuple[int, int]]:
 def ri_paper(pred_cuts, ref_cuts, n: int) -> float:
     """The seed paper's accuracy RI (Eq. 33) as its authors compute it.
 
-    Eq. 33 reads "RI = 1 − ER = 1 − |s − N| / N … N is the actual number of frames" of the action; the
+    Eq. 33 reads ``RI = 1 − ER = 1 − |s − N| / N`` ("N is the actual number of frames" of the action); the
     authors' published ``main.m`` computes, for each reference cut ``True(q)`` (in order, with
     ``True(0) = 0``), the found cut ``FS(q)`` nearest to it and
 
