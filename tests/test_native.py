@@ -318,10 +318,11 @@ def test_c_library_compiles_warning_free(tmp_path, flags):
                         *flags, "-c", str(c), "-o", str(tmp_path / (c.stem + ".o"))], check=True)
 
 
-@pytest.mark.skipif(shutil.which("gcc") is None, reason="no gcc to compile the README's C example")
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="no gcc to compile the documented C example")
 def test_readme_c_example_compiles_and_runs(tmp_path):
-    """The C snippet of the README, wrapped in a program that feeds it a still-then-turning sensor."""
-    text = (ROOT / "README.md").read_text()
+    """The C snippet of docs/sensor.md (once the README's), wrapped in a program that feeds it a
+    still-then-turning sensor."""
+    text = (ROOT / "docs" / "sensor.md").read_text()
     snippet = text.split("```c\n", 1)[1].split("```", 1)[0]
     body = snippet.split("\n", 1)[1].replace("for (;;) {", "for (int i = 0; i < 100; i++) {\n"
                                                 "    uint32_t t = 10u * (uint32_t)i;\n"
