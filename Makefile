@@ -3,8 +3,9 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
+DOCS_STAMP := $(VENV)/.docs-installed
 
-.PHONY: view-deps demo test bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
+.PHONY: view-deps demo test docs bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
 
 # the C encoders (c/mkpla) are compiled into the package by pip (setup.py: cffi); a changed C source rebuilds
 $(STAMP): pyproject.toml Makefile setup.py c/mkpla_cffi.py $(wildcard c/mkpla/*.c c/mkpla/*.h)
@@ -35,6 +36,17 @@ demo: $(STAMP)
 
 test: $(STAMP) $(NODE_STAMP) view-deps
 	$(BIN)/python -m pytest -q
+
+# Sphinx, furo and MyST (the [docs] extra), on top of the package
+$(DOCS_STAMP): $(STAMP) pyproject.toml
+	$(BIN)/python -m pip install -q -e '.[docs]'
+	touch $(DOCS_STAMP)
+
+# the documentation site into build/docs (open build/docs/index.html): the pages of docs/, the API from the
+# docstrings of every name in the packages' __all__, the command reference from the typer app; any warning
+# fails the build
+docs: $(DOCS_STAMP)
+	$(BIN)/python -m sphinx -W --keep-going -b html docs build/docs
 
 bench: $(STAMP)
 	$(BIN)/mocapkit bench --json > docs/bench.json

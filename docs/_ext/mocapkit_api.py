@@ -36,7 +36,7 @@ def _data_lines(package: str, name: str, obj) -> list[str]:
     """A constant: its ``#:`` comment from the module that defines it (autodoc would show its type's docstring)."""
     from sphinx.pycode import ModuleAnalyzer
 
-    lines = [f".. py:data:: {package}.{name}"]
+    lines = [f".. py:data:: {name}", f"   :module: {package}"]
     text = repr(obj)
     if len(text) <= 100 and "<" not in text:
         lines.append(f"   :value: {text}")
