@@ -47,6 +47,8 @@ napoleon_google_docstring = True
 napoleon_numpy_docstring = True
 
 nitpicky = False
+smartquotes = False                                       # "--json" stays two hyphens, as typed
+highlight_language = "text"                                # unlabelled blocks are commands and tables
 html_theme = "furo"
 html_title = f"mocapkit {release}"
 html_static_path: list[str] = []

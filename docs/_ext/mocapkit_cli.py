@@ -70,7 +70,7 @@ def _section(path, cmd, ctx, document) -> nodes.section:
     sec = nodes.section(ids=[make_id(None, document, "", "cli-" + path.replace(" ", "-"))])
     sec += nodes.title(path, "", nodes.literal(path, path))
     usage = cmd.get_usage(ctx)
-    sec += nodes.literal_block(usage, usage)
+    sec += nodes.literal_block(usage, usage, language="text")
     sec += _paragraphs(cmd.help or "")
     if cmd.epilog:
         sec += _paragraphs(cmd.epilog)
