@@ -1,8 +1,8 @@
 """The command reference, read from the typer app itself: ``.. mocapkit-cli::`` renders every command and
 sub-command of ``mocapkit`` (usage, help text, arguments and options with their type and default).
 
-typer 0.29 carries its own copy of click, so sphinx-click cannot read it; this walks typer's command
-objects and asks each parameter for the help record that ``--help`` prints.
+typer 0.29 carries its own copy of click, so sphinx-click cannot read it; this walks the command objects
+typer builds and asks each parameter for the help record that ``--help`` prints.
 """
 
 from __future__ import annotations
@@ -13,9 +13,8 @@ from sphinx.util.nodes import make_id
 
 
 def _context(command, name, parent=None):
-    from typer import _click
-
-    return _click.core.Context(command, info_name=name, parent=parent)
+    """The command's own context class (typer's copy of click, or click itself for an older typer)."""
+    return command.context_class(command, info_name=name, parent=parent)
 
 
 def _paragraphs(text: str) -> list[nodes.Node]:
