@@ -209,3 +209,20 @@ def test_site_builds_without_a_warning(tmp_path):
     for page in ("index", "guide-wearable", "guide-animation", "guide-research", "benchmarks", "mkc", "mkp",
                  "records", "api/jobs"):
         assert (tmp_path / "html" / f"{page}.html").is_file(), page
+
+
+def test_readme_quick_start_commands_run(tmp_path):
+    """The README's quick start as written (but ``view``, which serves until stopped), in a scratch folder
+    that sees ``tests/data``: every command exits 0."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"## Quick start\n.*?```\n(.*?)```", text, flags=re.S).group(1)
+    commands = [line.split("  #")[0].split() for line in block.splitlines() if line.startswith("mocapkit ")]
+    assert len(commands) >= 5 and commands[-1][1] == "view"
+    (tmp_path / "tests").mkdir()
+    (tmp_path / "tests" / "data").symlink_to(ROOT / "tests" / "data")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
+    for argv in commands[:-1]:
+        res = subprocess.run([sys.executable, "-m", "mocapkit.cli", *argv[1:]], cwd=tmp_path, env=env,
+                             capture_output=True, text=True)
+        assert res.returncode == 0, f"{' '.join(argv)}: {res.stderr}"
+    assert (tmp_path / "walk.mkc").is_file() and (tmp_path / "points" / "pelvis.csv").is_file()
