@@ -226,3 +226,49 @@ def test_readme_quick_start_commands_run(tmp_path):
                              capture_output=True, text=True)
         assert res.returncode == 0, f"{' '.join(argv)}: {res.stderr}"
     assert (tmp_path / "walk.mkc").is_file() and (tmp_path / "points" / "pelvis.csv").is_file()
+
+
+def _guide_commands(page: str) -> list[str]:
+    """The ``mocapkit`` command lines of a guide's unlabelled code blocks, continuations joined, comments cut."""
+    text = (DOCS / page).read_text(encoding="utf-8")
+    out = []
+    for block in re.findall(r"```\n(.*?)```", text, flags=re.S):
+        for line in block.replace("\\\n", " ").splitlines():
+            line = re.split(r"\s{2,}#", line)[0].strip()
+            if line.startswith("mocapkit "):
+                out.append(" ".join(line.split()))
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("page", ["guide-wearable.md", "guide-animation.md", "guide-research.md"])
+def test_guide_commands_run(tmp_path, page):
+    """Every command of a guide, in order, in a scratch folder that sees ``tests/data``, exits 0 — but the
+    ones that serve until stopped (``view`` without ``--export``), the hour-long experiments
+    (``segment-bench``, ``filter-eval``) and those on ``../shared/data`` when it is absent."""
+    commands = _guide_commands(page)
+    assert len(commands) >= 5
+    work = tmp_path / "work"                     # its ../shared/data is the repository's, when there is one
+    (work / "tests").mkdir(parents=True)
+    (work / "tests" / "data").symlink_to(ROOT / "tests" / "data")
+    shared = ROOT.parent / "shared" / "data"
+    if shared.is_dir():
+        (tmp_path / "shared").mkdir()
+        (tmp_path / "shared" / "data").symlink_to(shared)
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    (bin_dir / "mocapkit").write_text(f'#!/bin/sh\nexec "{sys.executable}" -m mocapkit.cli "$@"\n')
+    (bin_dir / "mocapkit").chmod(0o755)
+    env = {**os.environ, "PATH": f"{bin_dir}{os.pathsep}{os.environ['PATH']}",
+           "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
+    ran = 0
+    for cmd in commands:
+        words = cmd.split()
+        if (words[1] == "view" and "--export" not in words) or words[1] in ("segment-bench", "filter-eval") \
+                or ("../shared/data" in cmd and not shared.is_dir()):
+            continue
+        res = subprocess.run(["bash", "-c", cmd], cwd=work, env=env, capture_output=True, text=True,
+                             timeout=600)
+        assert res.returncode == 0, f"{page}: {cmd}: {res.stderr[-2000:]}"
+        ran += 1
+    assert ran >= 5
