@@ -4,13 +4,13 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 
-.PHONY: view-deps demo test bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
+.PHONY: view-deps demo test lint bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
 
 # the C encoders (c/mkpla) are compiled into the package by pip (setup.py: cffi); a changed C source rebuilds
 $(STAMP): pyproject.toml Makefile setup.py c/mkpla_cffi.py $(wildcard c/mkpla/*.c c/mkpla/*.h)
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test]'
+	$(BIN)/python -m pip install -q -e '.[test,dev]'
 	touch $(STAMP)
 
 # the Khronos glTF validator is used by the tests only (skipped with a reason where node is missing);
@@ -35,6 +35,11 @@ demo: $(STAMP)
 
 test: $(STAMP) $(NODE_STAMP) view-deps
 	$(BIN)/python -m pytest -q
+
+# ruff (rules in pyproject.toml) over the code and mypy over src/mocapkit (strict on the public core)
+lint: $(STAMP)
+	$(BIN)/ruff check src tests benchmarks tools docs
+	$(BIN)/mypy
 
 bench: $(STAMP)
 	$(BIN)/mocapkit bench --json > docs/bench.json
