@@ -93,7 +93,7 @@ def bvhio_world_positions_fast(path: str) -> np.ndarray:
     for k in range(n):
         root.loadPose(k, recursive=True)
         world = [identity] * len(joints)
-        for i, (j, p) in enumerate(zip(joints, parents)):
+        for i, (j, p) in enumerate(zip(joints, parents, strict=True)):
             parent_world = world[p] if p >= 0 else identity
             world[i] = parent_world * j.Space
             out[k, i] = parent_world * j.Position

@@ -55,9 +55,9 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         sys.exit(f"needs the shared recordings at {DATA}")
+    import mocapkit.clip.decoder as reader
     from mocapkit.clip import Clip, encode_clip
     from mocapkit.io.loaders import load_motion, unit_cm
-    import mocapkit.clip.decoder as reader
     from mocapkit.pla.skeletal import compress_motion
 
     def load(name, asf, u):

@@ -207,7 +207,7 @@ def run(cmu_dir: Path, log=print) -> list[dict]:
             dt = time.perf_counter() - t0
             row = {"cuts": cuts_name, "distance": dist, "rule": rule if rule == "silhouette" else f"threshold/{spread}", "take": "all 4 together",
                    "n_segments": sum(len(c) + 1 for c in cuts),
-                   "letters": " | ".join(" ".join(l) for l in nm.letters), "seconds": dt}
+                   "letters": " | ".join(" ".join(run) for run in nm.letters), "seconds": dt}
             row.update(scores(nm, takes))
             rows.append(row)
             if log:

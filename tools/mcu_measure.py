@@ -308,7 +308,7 @@ def read_output(path: Path, jobs: list[Job], signals: list[Signal]) -> tuple[dic
     w = np.fromfile(path, dtype="<u4")
     if len(w) < 9 or w[0] != MAGIC_OUT or w[1] != VERSION or w[2] != len(jobs):
         raise McuError(f"{path}: not a harness output for {len(jobs)} jobs")
-    sizes = dict(zip(("fastsw", "sw", "cplr", "swing", "anglesw", "encoder"), (int(x) for x in w[3:9])))
+    sizes = dict(zip(("fastsw", "sw", "cplr", "swing", "anglesw", "encoder"), (int(x) for x in w[3:9]), strict=True))
     pos = 9
     out = []
     for j in jobs:
@@ -522,7 +522,7 @@ def _traced(cmd: list[str], image: Image, push: str | tuple[str, ...], singleste
     full = cmd + (["-singlestep"] if singlestep else []) + ["-d", flags, "-dfilter", dfilter, "-D", f"/dev/fd/{w}"]
     proc = subprocess.Popen(full, stdout=subprocess.PIPE, stderr=subprocess.PIPE, pass_fds=(w,))
     os.close(w)
-    counters = [CallCounter(image.range(p)[0], ins, singlestep, returns_logged) for p, ins in zip(names, insides)]
+    counters = [CallCounter(image.range(p)[0], ins, singlestep, returns_logged) for p, ins in zip(names, insides, strict=False)]
     chunks: queue.Queue = queue.Queue(maxsize=64)
 
     def reader() -> None:   # reads while the main thread parses, so QEMU never waits for the parser
@@ -577,7 +577,7 @@ def host_points(sig: Signal, job: Job):
 def differences(signals: list[Signal], jobs: list[Job], results: list[Result]) -> list[str]:
     """Jobs whose QEMU points differ from the host float32 build's (index, time or value bits)."""
     bad = []
-    for j, r in zip(jobs, results):
+    for j, r in zip(jobs, results, strict=False):
         h = host_points(signals[j.signal], j)
         what = None
         if len(h.indices) != len(r.index) or not np.array_equal(h.indices, r.index.astype(np.int64)):
@@ -745,7 +745,7 @@ def read_mkp_output(path: Path, jobs: list[MkpJob], signals: list[Signal]) -> tu
         body = raw[4 * pos: 4 * pos + nb]
         pos += (nb + 3) // 4
         edges = np.concatenate([[0], np.cumsum(lens)])
-        packets = [body[a:b] for a, b in zip(edges[:-1].tolist(), edges[1:].tolist())]
+        packets = [body[a:b] for a, b in zip(edges[:-1].tolist(), edges[1:].tolist(), strict=True)]
         n = int(w[pos])
         if n != len(signals[j.signal].t):
             raise McuError(f"{path}: job {j} reports {n} samples")
@@ -785,7 +785,7 @@ def run_mkp(elf: Path, signals: list[Signal], jobs: list[MkpJob], workdir: Path,
         counts = _traced(cmd, image, tuple(count), singlestep, timeout)
     sizes, results = read_mkp_output(out, jobs, signals)
     pushes = sum(len(signals[j.signal].t) for j in jobs)
-    for name, c in zip(count, counts):
+    for name, c in zip(count, counts, strict=False):
         if len(c) != pushes:
             raise McuError(f"counted {len(c)} calls of {name} for {pushes} pushes")
     return sizes, results, counts
@@ -802,13 +802,13 @@ def host_packets(sig: Signal, job: MkpJob):
 def mkp_differences(signals: list[Signal], jobs: list[MkpJob], results: list[MkpResult]) -> list[str]:
     """Jobs whose QEMU packets differ from the host float32 build's (bytes, or the sample that sent them)."""
     bad = []
-    for j, r in zip(jobs, results):
+    for j, r in zip(jobs, results, strict=False):
         h = host_packets(signals[j.signal], j)
         what = None
         if len(h.packets) != len(r.packets):
             what = f"{len(r.packets)} packets on the M4, {len(h.packets)} on the host"
         elif h.packets != r.packets:
-            k = next(i for i, (a, b) in enumerate(zip(h.packets, r.packets)) if a != b)
+            k = next(i for i, (a, b) in enumerate(zip(h.packets, r.packets, strict=True)) if a != b)
             what = f"packet {k} differs"
         elif not np.array_equal(h.sent_at, r.sent_at):
             what = "packets sent at other samples"
@@ -972,7 +972,7 @@ def measure(elf: Path, workdir: Path, data: Path | None = DATA, *, line_budget: 
         # shared recordings, cheapest jobs first while the budget lasts; estimated log lines (blocks
         # run) of a job: ~10 per push and, per buffered sample, ~3 (SW) or ~40 (anglesw)
         per_n = 40 if method == "anglesw" else 3 if method == "sw" else 0
-        cost = sorted((10 * len(sl) + per_n * int(sl.sum()), k) for k, (j, sl) in enumerate(zip(eq_jobs, seglens))
+        cost = sorted((10 * len(sl) + per_n * int(sl.sum()), k) for k, (j, sl) in enumerate(zip(eq_jobs, seglens, strict=False))
                       if j.method == method)
         data_jobs, spent = [], 0
         for c, k in cost:

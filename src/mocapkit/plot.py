@@ -83,7 +83,7 @@ def plot_sweep_error(agg: list[dict], path: Path) -> Path:
     return _save(fig, path)
 
 
-def plot_ppa(t, y, result, path, title: str = "", butter=None) -> "Path":
+def plot_ppa(t, y, result, path, title: str = "", butter=None) -> Path:
     """Like Figure 3 of the seed report: a signal with its piecewise polynomial fit and knots, and the
     fit's first and second time derivatives (optionally a Butterworth-filtered comparison)."""
     t = np.asarray(t, dtype=np.float64)
@@ -178,7 +178,7 @@ def plot_arma_diagnostics(windows, names, out_png, title: str = "", per_limb: in
     pvals = []
     for ws in checked:
         row = []
-        for series, resid, p, q in ws:
+        for _series, resid, p, q in ws:
             h = default_lags(resid.size) if lags is None else lags
             row.append(ljung_box(resid, h, p + q).pvalue if 1 <= h < resid.size and h > p + q else np.nan)
         pvals.append(np.array(row))
@@ -234,7 +234,7 @@ def plot_arma_diagnostics(windows, names, out_png, title: str = "", per_limb: in
         axes[2].set_title(f"Ljung–Box p = {pv:.3g}" if np.isfinite(pv) else "Ljung–Box: too few lags", fontsize=7,
                           loc="right")
         if r == 0:
-            for ax, what in zip(axes, ("ACF of the series", "PACF of the series", "ACF of the residuals")):
+            for ax, what in zip(axes, ("ACF of the series", "PACF of the series", "ACF of the residuals"), strict=True):
                 ax.text(0.5, 1.4, what, transform=ax.transAxes, ha="center", fontsize=9, weight="bold")
         for ax in axes[1:]:
             ax.tick_params(labelleft=False)

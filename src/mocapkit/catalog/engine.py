@@ -198,10 +198,9 @@ class Catalog:
 
     def _insert(self, table: str, cols: tuple[str, ...], rows: list[tuple]) -> None:
         if self.engine == "postgresql":
-            with self._conn.cursor() as cur:
-                with cur.copy(f"COPY {table} ({', '.join(cols)}) FROM STDIN") as cp:
-                    for r in rows:
-                        cp.write_row(r)
+            with self._conn.cursor() as cur, cur.copy(f"COPY {table} ({', '.join(cols)}) FROM STDIN") as cp:
+                for r in rows:
+                    cp.write_row(r)
         else:
             self._register_arrow("_mocapkit_rows", schema.TABLES[table], rows)
             try:
@@ -248,7 +247,7 @@ class Catalog:
         with contextlib.suppress(Exception):
             self._conn.close()
 
-    def __enter__(self) -> "Catalog":
+    def __enter__(self) -> Catalog:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -401,4 +400,4 @@ def utc_naive(text: str | None) -> dt.datetime | None:
     if text is None:
         return None
     t = dt.datetime.fromisoformat(str(text).replace("Z", "+00:00"))
-    return t.astimezone(dt.timezone.utc).replace(tzinfo=None) if t.tzinfo else t
+    return t.astimezone(dt.UTC).replace(tzinfo=None) if t.tzinfo else t

@@ -95,7 +95,7 @@ def channel_rows(rec: dict, content_hash: str, reading: tuple[str, str]) -> list
 
 
 def _now() -> dt.datetime:
-    return dt.datetime.now(dt.timezone.utc).replace(tzinfo=None)
+    return dt.datetime.now(dt.UTC).replace(tzinfo=None)
 
 
 def put_recordings(catalog: Catalog, items: list[tuple]) -> int:

@@ -41,7 +41,8 @@ from __future__ import annotations
 
 SCHEMA_VERSION = 2
 
-T, I, F, B, TS = "TEXT", "BIGINT", "DOUBLE PRECISION", "BOOLEAN", "TIMESTAMP"
+# one-letter column types keep the table below readable
+T, I, F, B, TS = "TEXT", "BIGINT", "DOUBLE PRECISION", "BOOLEAN", "TIMESTAMP"  # noqa: E741
 
 #: table -> ((column, type), ...) in insert order
 TABLES: dict[str, tuple[tuple[str, str], ...]] = {

@@ -31,13 +31,12 @@ import numpy as np
 
 from mocapkit import __version__
 from mocapkit.clip.budget import track_tolerances
-from mocapkit.clip.keys import choose_keys
-from mocapkit.clip.metric import (check_metric, end_errors_from_fk, end_site_arrays, errors_from_fk,
-                                  worst_point_errors)
-from mocapkit.errors import BoundViolationError, InvalidParameterError
-from mocapkit.clip.container import mkc_bytes
 from mocapkit.clip.codec import ENTROPY, entropy_encode, pack_block, steps_table, unpack_block
+from mocapkit.clip.container import mkc_bytes
 from mocapkit.clip.decoder import Clip
+from mocapkit.clip.keys import choose_keys
+from mocapkit.clip.metric import check_metric, end_errors_from_fk, end_site_arrays, errors_from_fk, worst_point_errors
+from mocapkit.errors import BoundViolationError, InvalidParameterError
 from mocapkit.rotvec import exp_map, log_map
 from mocapkit.skeleton import Motion, forward_kinematics
 
@@ -215,7 +214,7 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     payloads = [pack_block(e - a, [keys[b][c] for c in range(T)]) for b, (a, e) in enumerate(spans)]
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:  # zstd and LZMA release the GIL
         coded = list(pool.map(lambda p: entropy_encode(p, entropy), payloads))
-    blocks = [(a, e - a, len(p), c) for (a, e), p, c in zip(spans, payloads, coded)]
+    blocks = [(a, e - a, len(p), c) for (a, e), p, c in zip(spans, payloads, coded, strict=True)]
     n_keys = sum(len(keys[b][c][2]) for b in range(B) for c in range(T))
     header = _header(motion, tracks, anim, unit_cm, source, n_keys)
     header["bound"] = {"metric": metric, "value": bound, "shell_distance": shell_distance}

@@ -10,6 +10,7 @@ is the best of several repeats.
 from __future__ import annotations
 
 import time
+from functools import partial
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -67,7 +68,7 @@ def _stream_ns(sig: Signal, method: str, th: float, n: int, mode: str = "stream"
     ts = sig.times[:n].tolist()
     xs = sig.values[:n].tolist()
     t0 = time.perf_counter_ns()
-    for t, x in zip(ts, xs):
+    for t, x in zip(ts, xs, strict=True):
         enc.push(t, x)
     enc.flush()
     return (time.perf_counter_ns() - t0) / n
@@ -95,7 +96,7 @@ def run_bench(channels: int = 31, frames: int = 100_000, quick: bool = False, pr
             comp = threshold_for_icr(s_m, method, 1.0 / L, MAX_SEGMENT_LENGTH)
             th = comp.threshold
             msl = comp.mean_segment_length
-            ns_b = _best_ns(lambda: compress(s_m, method, th, MAX_SEGMENT_LENGTH, _prepared=X_m), len(s_m))
+            ns_b = _best_ns(partial(compress, s_m, method, th, MAX_SEGMENT_LENGTH, _prepared=X_m), len(s_m))
             n_stream = min(len(s_m), 5000 if not quick else 1000)
             timed = [("batch", ns_b)] + [(mode, min(_stream_ns(s_m, method, th, n_stream, mode) for _ in range(2)))
                                          for mode in STREAM_MODES]

@@ -132,7 +132,7 @@ def evaluate_juggling(markers, balls, penalty: float | None = None, unit_m: floa
         ok = ~np.isnan(z)
         # Butterworth on the longest NaN-free run
         runs = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(int), [0]])))
-        a, e = max(zip(runs[::2], runs[1::2]), key=lambda r_: r_[1] - r_[0])
+        a, e = max(zip(runs[::2], runs[1::2], strict=True), key=lambda r_: r_[1] - r_[0])
         fs = markers.rate
         stds, means = [], []
         fc = float("nan")

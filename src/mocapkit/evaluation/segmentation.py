@@ -94,8 +94,8 @@ def find_pairs(items, label_suffix: str = ".labels.txt") -> list[tuple[Path, Pat
 def load_user_takes(pairs, asf: Path | None = None, rate: float | None = None, log=None) -> list[Take]:
     """Every take and its labels. All label files are read and checked against their take's frame
     count first (a bad file fails before any feature is computed); then the features."""
-    from mocapkit.io.skeletal.labels import read_reference
     from mocapkit.io.loaders import load_motion
+    from mocapkit.io.skeletal.labels import read_reference
     from mocapkit.segment.features import motion_features, pose_features
 
     motions = []
@@ -171,8 +171,8 @@ def features_for(method: str, take: Take) -> np.ndarray:
 def make_segmenter(method: str, take: Take | None = None, others: list[Take] | None = None, n_cuts: int | None = None):
     """A segmenter with the benchmark's settings (the library defaults, scaled to the take's rate by
     :func:`rate_scaled`; MLP trained on ``others``)."""
-    from mocapkit.segment.arma import ARMASegmenter
     from mocapkit.segment import BASELINES
+    from mocapkit.segment.arma import ARMASegmenter
 
     kw = rate_scaled(method, take.ref.rate_hz) if take is not None else {}
     if method == "arma":
@@ -285,8 +285,8 @@ def tssb_segmenter(method: str, n: int, w: int):
     """The TSSB settings: ARMA without downsampling; the baselines' shortest segment 5 windows
     (``5·w``, ClaSP's own exclusion zone) instead of the 1 s of mocap; PELT runs on every
     ``ceil(n / 8000)``-th sample of long series (its cost grows with n² without pruning)."""
-    from mocapkit.segment.arma import ARMASegmenter
     from mocapkit.segment import BASELINES
+    from mocapkit.segment.arma import ARMASegmenter
 
     if method == "arma":
         return ARMASegmenter(downsample=1)

@@ -70,8 +70,8 @@ knots; the test suite checks white noise and AR(1) noise of ρ = 0.9 over 2,000 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from scipy.special import comb
@@ -240,7 +240,7 @@ def _best_split_ssr(t: np.ndarray, Y: np.ndarray, order: int) -> float:
 def _residual_dof(parts: Parts, sols: Sequence[PiecewisePolynomial]) -> int:
     """Residual degrees of freedom of a fit: valid samples minus coefficients, per piece and component."""
     dof = 0
-    for (_, Y), sol in zip(parts, sols):
+    for (_, Y), sol in zip(parts, sols, strict=True):
         ok = np.isfinite(Y).all(axis=1)
         dof += sum(max(int(ok[pc.i0:pc.i1].sum()) - pc.coeffs.shape[0], 0) for pc in sol.pieces) * Y.shape[1]
     return dof
@@ -263,7 +263,7 @@ def long_run_variance(parts: Parts, sols: Sequence[PiecewisePolynomial]) -> floa
     no residual (see :func:`_significance`)."""
     num = den = ssr = 0.0
     n = dof = 0
-    for (t, Y), sol in zip(parts, sols):
+    for (t, Y), sol in zip(parts, sols, strict=True):
         D = Y.shape[1]
         for pc in sol.pieces:
             yy = Y[pc.i0:pc.i1]

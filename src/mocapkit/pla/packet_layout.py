@@ -458,7 +458,7 @@ def decode_mkp(data: bytes, where: str) -> PacketFile:
             if p.ticks and p.ticks[0] <= a["last_tick"]:
                 raise MocapFormatError(where, None, f"{here}: {name}: tick {p.ticks[0]} is not after tick "
                                                     f"{a['last_tick']} of the previous packet")
-            for k, (t, c) in enumerate(zip(p.ticks, p.codes)):
+            for k, (t, c) in enumerate(zip(p.ticks, p.codes, strict=False)):
                 s = sum((2 * x - m) ** 2 for x in c[1:]) * h2
                 if s > 1.0:
                     raise MocapFormatError(where, None, f"{here}: point {k}: its codes lie outside the unit sphere")
@@ -471,7 +471,7 @@ def decode_mkp(data: bytes, where: str) -> PacketFile:
             a["ended"] = p.last
         index += 1
     streams = {}
-    for sensor, a in zip(header.sensors, acc):
+    for sensor, a in zip(header.sensors, acc, strict=True):
         problem = clock_problem(sensor, np.array(a["ticks"], dtype=np.int64))
         if problem:
             raise MocapFormatError(where, None, f"header: {problem}")

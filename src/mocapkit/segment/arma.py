@@ -488,7 +488,7 @@ class ARMASegmenter(Segmenter):
         for k, item in enumerate(series):
             if item is not None:
                 by_len.setdefault(item[0].size, []).append(k)
-        for m, ks in by_len.items():
+        for ks in by_len.values():
             stack = np.stack([series[k][0] for k in ks])
             scores = np.full((len(ks), len(grid)), np.inf)
             for j, (p, q) in enumerate(grid):
@@ -662,7 +662,7 @@ class ARMASegmenter(Segmenter):
         return [int(c) * stride for c in curve.cuts(k)]
 
     # -- API -----------------------------------------------------------------------------------
-    def fit(self, X) -> "ARMASegmenter":
+    def fit(self, X) -> ARMASegmenter:
         X = as_signal(X)
         n = X.shape[0]
         x = X[:: self.downsample]

@@ -247,7 +247,7 @@ class AutoSegmenter(Segmenter):
         self.c = float(c)
         self.noise_range = (float(noise_range[0]), float(noise_range[1]))
 
-    def fit(self, X) -> "AutoSegmenter":
+    def fit(self, X) -> AutoSegmenter:
         x = as_signal(X)
         n = x.shape[0]
         self.n_frames_ = n

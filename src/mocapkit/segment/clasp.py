@@ -128,7 +128,7 @@ class ClaSPSegmenter(Segmenter):
         self.n_jobs = int(n_jobs)
         self.random_state = int_param(random_state, "random_state", 0)
 
-    def fit(self, X) -> "ClaSPSegmenter":
+    def fit(self, X) -> ClaSPSegmenter:
         """Segment ``X`` and store the cuts.
 
         Parameters

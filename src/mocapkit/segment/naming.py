@@ -184,7 +184,7 @@ def _as_takes(takes_features, takes_cuts) -> tuple[list[np.ndarray], list[np.nda
     for k, x in enumerate(feats):
         if x.shape[1] != d:
             raise InvalidParameterError(f"take {k} has {x.shape[1]} feature columns, take 0 has {d}")
-    cuts = [_check_cuts(c, x.shape[0], k) for k, (x, c) in enumerate(zip(feats, cuts))]
+    cuts = [_check_cuts(c, x.shape[0], k) for k, (x, c) in enumerate(zip(feats, cuts, strict=True))]
     return feats, cuts
 
 
@@ -397,7 +397,7 @@ def name_actions(
         gamma = float_param(gamma, "gamma")
     bounds, segs = [], []
     start = 0
-    for x, c in zip(feats, cuts):
+    for x, c in zip(feats, cuts, strict=True):
         n = x.shape[0]
         z = z_all[start:start + n]
         start += n

@@ -40,7 +40,7 @@ def _prefix_cost(base_cost: type, model: str, gamma: float | None) -> Any:
         def model(self) -> str:
             return model
 
-        def fit(self, signal: np.ndarray) -> "PrefixSumCost":
+        def fit(self, signal: np.ndarray) -> PrefixSumCost:
             z = np.asarray(signal, dtype=np.float64)
             z = z.reshape(-1, 1) if z.ndim == 1 else z
             self.signal = z
@@ -215,7 +215,7 @@ class PELTSegmenter(Segmenter):
                 hi = (pen, bkps, cost)
         return self._prune(algo, lo[1], k)
 
-    def fit(self, X) -> "PELTSegmenter":
+    def fit(self, X) -> PELTSegmenter:
         """Segment ``X`` and store the cuts.
 
         Parameters

@@ -83,7 +83,7 @@ class SceneFigure:
         total = sum(_WEIGHTS[k] for k in kinds) or 1.0
         x = 0.01
         self.views = []
-        for i, (p, kind) in enumerate(zip(panels, kinds)):
+        for i, (p, kind) in enumerate(zip(panels, kinds, strict=False)):
             w = 0.98 * _WEIGHTS[kind] / total
             where = f"panel {p.get('id', i)}"
             if kind == "skeleton":

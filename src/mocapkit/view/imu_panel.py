@@ -37,7 +37,7 @@ def is_compress_points(path: Path) -> bool:
     return tuple(c.strip().lower() for c in head.split(",")) == COMPRESS_POINTS_HEADER
 
 
-def points_of(signal, original_times: np.ndarray) -> "Points | None":
+def points_of(signal, original_times: np.ndarray) -> Points | None:
     """``signal`` as the segment points of a recording sampled at ``original_times``, when it is one:
     fewer samples, the same first and last time, every time one of the original's (``compress -o`` writes
     the kept samples' times as they were read); else ``None``."""

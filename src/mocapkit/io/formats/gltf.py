@@ -639,9 +639,8 @@ def _check_channels_hold_motion(chans, offsets: np.ndarray, rot: np.ndarray, tra
                 raise _Bad(f"joint {names[j]!r}: the extras list {'' if listed else 'no '}{kind} channels "
                            f"({', '.join(ch) or 'none'}) but the animation has {'no ' if listed else 'a '}"
                            f"{kind} track for it")
-        if not any(c in ROTATION_CHANNELS for c in ch):
-            if not np.all(np.abs(rot[:, j, 0]) >= 1.0 - 1e-6):
-                raise _Bad(f"joint {names[j]!r} has no rotation channels in the extras but its rotation is animated")
+        if not any(c in ROTATION_CHANNELS for c in ch) and not np.all(np.abs(rot[:, j, 0]) >= 1.0 - 1e-6):
+            raise _Bad(f"joint {names[j]!r} has no rotation channels in the extras but its rotation is animated")
         for a, axis in enumerate("XYZ"):
             if f"{axis}position" not in ch:
                 dev = np.abs(trans[:, j, a] - offsets[j, a])

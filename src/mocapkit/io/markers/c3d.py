@@ -386,12 +386,10 @@ def _check(data: bytes) -> C3DLayout:
         if not math.isfinite(hdr["scale"]) or (hdr["scale"] < 0) != is_float:
             raise _Bad(f"the header scale factor ({hdr['scale']!r}) and POINT:SCALE ({pscales[0]!r}) "
                        "disagree on the storage format (float or integer)")
-        point_scale = pscales[0]
     else:
         if not math.isfinite(hdr["scale"]):
             raise _Bad("the header scale factor is not finite")
         is_float = hdr["scale"] < 0
-        point_scale = hdr["scale"]
 
     # analog: ezc3d recomputes samples per frame from ANALOG:RATE / POINT:RATE
     analog_group = groups.get("ANALOG", {})
@@ -445,9 +443,8 @@ def _check(data: bytes) -> C3DLayout:
     if frames_p is not None:
         fv = _first(groups, "POINT", "FRAMES", processor, (2,))
         pframes = fv[0] & 0xFFFF if (len(fv) > 1 or fv[0] < 0) else fv[0]
-    if last0 + 1 < first0:
-        if pframes == 0:
-            raise _Bad(f"the header's last frame ({last}) is before its first frame ({first})")
+    if last0 + 1 < first0 and pframes == 0:
+        raise _Bad(f"the header's last frame ({last}) is before its first frame ({first})")
     h_frames = last0 - first0 + 1
     if pframes:
         if pframes != h_frames and last != 0xFFFF:  # ezc3d follows POINT:FRAMES

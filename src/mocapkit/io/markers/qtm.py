@@ -79,8 +79,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.text.numbers import MAX_ABS, parse_number
 from mocapkit.io.text.input import MAX_HEADER_LINE, decode_text, final_line_verdict, read_input, report_final_line
+from mocapkit.io.text.numbers import MAX_ABS, parse_number
 from mocapkit.markers import Markers, make_unique_labels
 
 __all__ = ["read_qtm_tsv", "read_qtm_tsv_text", "REQUIRED_FIELDS"]

@@ -42,8 +42,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.text.numbers import NUMBER_RE, parse_number
 from mocapkit.io.text.input import check_cells_budget, final_line_verdict, read_text, report_final_line
+from mocapkit.io.text.numbers import NUMBER_RE, parse_number
 from mocapkit.markers import Markers, make_unique_labels
 
 #: Range accepted for a block's rate (Hz).
@@ -249,7 +249,7 @@ def read_vicon_csv(path: str | Path) -> Markers:
     dev = by_name.get("Devices")
     if dev is not None:
         d_rate, d_names, d_comps, d_units, d_vals, d_lines = _parse_block(dev, src, cut_line, size, read_warnings)
-        d_labels, d_fixes = make_unique_labels([f"{nm} {c}".strip() for nm, c in zip(d_names, d_comps)],
+        d_labels, d_fixes = make_unique_labels([f"{nm} {c}".strip() for nm, c in zip(d_names, d_comps, strict=False)],
                                                len(d_comps), prefix="analog")
         meta["analog_label_fixes"] = d_fixes
         analog = {"labels": d_labels, "rate": d_rate, "values": d_vals[:, 2:], "units": tuple(d_units),

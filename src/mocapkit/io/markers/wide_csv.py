@@ -47,7 +47,7 @@ def write_markers_csv(markers: Markers, path: str | Path) -> None:
     csv.writer(buf, lineterminator="\n").writerow(marker_csv_header(markers))
     flat = markers.positions.reshape(markers.n_frames, -1)
     rows = [buf.getvalue()]
-    for t, row in zip(markers.times.tolist(), flat.tolist()):
+    for t, row in zip(markers.times.tolist(), flat.tolist(), strict=True):
         rows.append(",".join([repr(t)] + [repr(v) for v in row]))
         rows.append("\n")
     atomic_write_text(path, "".join(rows))
@@ -119,7 +119,7 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str | N
     for j in range(1, len(header), 3):
         trio = header[j:j + 3]
         stems = []
-        for h, ax in zip(trio, _AXES):
+        for h, ax in zip(trio, _AXES, strict=False):
             if not h.lower().endswith("_" + ax):
                 raise MocapFormatError(src, 1, f"column {j + _AXES.index(ax) + 1} ({h!r}) should end in '_{ax}'")
             stems.append(h[:-2])

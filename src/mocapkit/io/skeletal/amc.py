@@ -319,9 +319,8 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
                 version = " ".join(toks[1:]) or None
             elif kw == "name":
                 name = " ".join(toks[1:]) or None
-            elif kw in ("units", "documentation", "root", "bonedata", "hierarchy") and len(toks) > 1:
-                if kw != "documentation":
-                    raise MocapFormatError(src, ln, f"unexpected {_short(' '.join(toks[1:]))} after :{kw}")
+            elif kw in ("units", "root", "bonedata", "hierarchy") and len(toks) > 1:
+                raise MocapFormatError(src, ln, f"unexpected {_short(' '.join(toks[1:]))} after :{kw}")
             continue
         if section is None:
             raise MocapFormatError(src, ln, f"{_short(body.strip())} before the first ':' section keyword")

@@ -41,6 +41,7 @@ from __future__ import annotations
 import io
 import re
 import warnings
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -48,8 +49,8 @@ from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError, MocapWarning
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.text.numbers import MAX_ABS, NUMBER_RE, looks_cut, parse_number
 from mocapkit.io.text.input import read_input
+from mocapkit.io.text.numbers import MAX_ABS, NUMBER_RE, looks_cut, parse_number
 from mocapkit.quat import to_scipy
 from mocapkit.skeleton import MAX_JOINT_FRAMES, POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
@@ -277,7 +278,7 @@ def _strict_rows(data: str, first: int, skel: Skeleton, path: str, frame0: int =
             c = next(i for i, t in enumerate(toks) if not _NUMERIC_LINE.match(t))
             raise MocapFormatError(path, lineno, f"{_field(skel, k + 1, c)}: {toks[c][:30]!r} is not a number")
         nums = []
-        for c, t in enumerate(toks):
+        for t in toks:
             found = NUMBER_RE.findall(t)
             if "".join(found) != t:
                 raise MocapFormatError(path, lineno, f"{_field(skel, k + 1, len(nums))}: cannot read the numbers in {t[:40]!r}")
@@ -450,7 +451,7 @@ def motion_from_channels(skel: Skeleton, values: np.ndarray, frame_time: float, 
     # NaNs included, no sign canonicalisation) without its per-element cost. Quaternions are
     # (x, y, z, w) here as in scipy; 0.0 stands for a component that is +0.0 in every frame.
     for order, (joints, cols) in groups.items():
-        if any(a == b for a, b in zip(order, order[1:])):
+        if any(a == b for a, b in pairwise(order)):
             Rotation.from_euler(order, values[:, cols[0]], degrees=True)  # raises scipy's error, as before
         half = np.asarray(values[:, cols], dtype=np.float64)  # (N, joints, len(order)), a new array
         np.deg2rad(half, out=half)
@@ -529,7 +530,7 @@ _BAD_NAME = re.compile(r"[\s{}]")
 def _check_writable(motion: Motion, vals: np.ndarray) -> None:
     """Refuse what would write a BVH file that cannot be read back as the same motion."""
     skel = motion.skeleton
-    for j, n in enumerate(skel.names):
+    for n in skel.names:
         if not n or _BAD_NAME.search(n):
             raise InvalidSignalError(f"joint name {n!r} cannot be written to BVH (empty, or holds blanks or braces)")
     bad = ~(np.abs(skel.offsets) <= MAX_ABS)

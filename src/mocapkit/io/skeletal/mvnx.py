@@ -70,9 +70,9 @@ from xml.parsers import expat
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.text.numbers import MAX_ABS, parse_number
 from mocapkit.io.text import input as textinput
 from mocapkit.io.text.input import is_regular
+from mocapkit.io.text.numbers import MAX_ABS, parse_number
 from mocapkit.quat import multiply
 from mocapkit.skeleton import Motion, Skeleton, quat_to_matrix
 
