@@ -137,7 +137,9 @@ def main() -> None:
         t_bvhio, P_bvhio = best_of(lambda: bvhio_world_positions(path), args.repeats)
         t_bvhio_fast, P_bvhio_fast = best_of(lambda: bvhio_world_positions_fast(path), args.repeats)
         t_bvh, vals_bvh = best_of(lambda: bvh_channel_values(path), max(args.repeats, 10))
-        rows.append((name, motion.n_frames, motion.skeleton.n_joints, t_parse, t_fk, t_total, t_bvhio, t_bvhio_fast, t_bvh))
+        rows.append(
+            (name, motion.n_frames, motion.skeleton.n_joints, t_parse, t_fk, t_total, t_bvhio, t_bvhio_fast, t_bvh)
+        )
 
         if P_bvhio.shape != P.shape:
             raise SystemExit(f"{name}: bvhio gives {P_bvhio.shape} positions, mocapkit {P.shape}")

@@ -185,7 +185,11 @@ def plot_arma_diagnostics(windows, names, out_png, title: str = "", per_limb: in
     shown = []
     for j, ws in enumerate(checked):
         n = len(ws)
-        ks = range(n) if per_limb is None or n <= per_limb else np.unique(np.linspace(0, n - 1, per_limb).round().astype(int))
+        ks = (
+            range(n)
+            if per_limb is None or n <= per_limb
+            else np.unique(np.linspace(0, n - 1, per_limb).round().astype(int))
+        )
         shown += [(j, int(k)) for k in ks]
     rows = len(shown)
     # fixed margins in inches (tight_layout over dozens of axes takes seconds)
@@ -207,7 +211,9 @@ def plot_arma_diagnostics(windows, names, out_png, title: str = "", per_limb: in
     top.set_xlabel("window start (sample)")
     top.legend(fontsize=7, ncol=min(4, max(1, len(names))), loc="best")
     top.grid(True, alpha=0.3)
-    top.set_title((title + "\n" if title else "") + f"residual whiteness per window (dashed: α = {alpha:g})", fontsize=9)
+    top.set_title(
+        (title + "\n" if title else "") + f"residual whiteness per window (dashed: α = {alpha:g})", fontsize=9
+    )
 
     def bars(ax, values, band):
         k = np.arange(1, values.size)

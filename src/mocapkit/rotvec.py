@@ -55,8 +55,10 @@ def exp_into(x: float, y: float, z: float, out: np.ndarray) -> None:
     elif h <= math.pi:
         t = h - HALF_PI  # sin h = cos t, cos h = −sin t
         u = t * t
-        c = -t * (1.0 + u * (S1 + u * (S2 + u * (S3 + u * (S4 + u * (S5 + u * (S6 + u * (S7 + u * (S8 + u * (S9 + u * (S10 + u * S11)))))))))))
-        f = (1.0 + u * (C1 + u * (C2 + u * (C3 + u * (C4 + u * (C5 + u * (C6 + u * (C7 + u * (C8 + u * (C9 + u * (C10 + u * C11))))))))))) / theta
+        c = -t * (1.0 + u * (S1 + u * (S2 + u * (S3 + u * (S4 + u * (S5 + u * (S6 + u * (S7 + u * (S8 + u * (S9
+                  + u * (S10 + u * S11)))))))))))
+        f = (1.0 + u * (C1 + u * (C2 + u * (C3 + u * (C4 + u * (C5 + u * (C6 + u * (C7 + u * (C8 + u * (C9
+             + u * (C10 + u * C11))))))))))) / theta
     else:
         f = math.sin(h) / theta
         c = math.cos(h)

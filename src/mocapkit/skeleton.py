@@ -167,7 +167,9 @@ class Motion:
         J = self.skeleton.n_joints
         N = t.shape[0]
         if r.shape != (N, J, 4) or x.shape != (N, J, 3):
-            raise InvalidSignalError(f"motion arrays: times {t.shape}, rotations {r.shape}, translations {x.shape}; J={J}")
+            raise InvalidSignalError(
+                f"motion arrays: times {t.shape}, rotations {r.shape}, translations {x.shape}; J={J}"
+            )
         if not np.all(np.isfinite(t)):
             raise InvalidSignalError("motion times must be finite")
         if N > 1 and np.any(np.diff(t) <= 0):
@@ -178,7 +180,9 @@ class Motion:
                 raise InvalidSignalError(f"motion {what}: joint {self.skeleton.names[j]!r} frame {n} is not finite")
         if N and J and not np.all(np.abs(r).max(axis=-1) > 0):
             n, j = (int(v[0]) for v in np.nonzero(~(np.abs(r).max(axis=-1) > 0)))
-            raise InvalidSignalError(f"motion rotations: joint {self.skeleton.names[j]!r} frame {n} is a zero quaternion")
+            raise InvalidSignalError(
+                f"motion rotations: joint {self.skeleton.names[j]!r} frame {n} is a zero quaternion"
+            )
         object.__setattr__(self, "times", t)
         object.__setattr__(self, "rotations", r)
         object.__setattr__(self, "translations", x)

@@ -328,7 +328,8 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
     ``create=False`` refuses a DuckDB file that does not exist yet (``catalog query`` on a typo'd path)
     instead of making an empty catalog. ``read_only=True`` (``catalog query``) opens it so that a statement
     cannot change it (DuckDB ``read_only`` with external access disabled and the configuration locked;
-    PostgreSQL ``default_transaction_read_only``): a guard against a slip, not a permission. Raises :class:`MocapError` naming the URL (password hidden).
+    PostgreSQL ``default_transaction_read_only``): a guard against a slip, not a permission. Raises :class:`MocapError`
+    naming the URL (password hidden).
     """
     if read_only:
         create = False

@@ -84,9 +84,9 @@ def reading_key(options: dict | str | None) -> tuple[str, str]:
 
 def recording_row(rec: dict, content_hash: str, reading: tuple[str, str], nbytes: int | None,
                   registered_at: dt.datetime) -> tuple:
-    return (rec["path"], content_hash, reading[1], reading[0], rec.get("format"), rec.get("kind"), _number(rec.get("rate_hz")),
-            rec.get("frames"), _number(rec.get("duration_s")), rec.get("subject"), rec.get("take"), nbytes,
-            registered_at)
+    return (rec["path"], content_hash, reading[1], reading[0], rec.get("format"), rec.get("kind"),
+            _number(rec.get("rate_hz")), rec.get("frames"), _number(rec.get("duration_s")), rec.get("subject"),
+            rec.get("take"), nbytes, registered_at)
 
 
 def channel_rows(rec: dict, content_hash: str, reading: tuple[str, str]) -> list[tuple]:

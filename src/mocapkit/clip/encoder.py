@@ -203,8 +203,10 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
             cols = sorted({c for k in bad.tolist() for c in movers(k, metric == "shell")}
                           | {c for k in end_joint[bad_end].tolist() for c in movers(k, True)})
             if not cols or r[b, cols].max() >= START_LEVELS + FLOOR_LEVELS:
-                raise BoundViolationError(f"frames {a}..{e - 1}: error {max(err.max(), err_end.max(initial=0)):.6g} > {bound:g} "
-                                          "even within the worst-case budget")
+                raise BoundViolationError(
+                    f"frames {a}..{e - 1}: error {max(err.max(), err_end.max(initial=0)):.6g} > {bound:g} "
+                    "even within the worst-case budget"
+                )
             r[b, cols] += 1
             encode_block(b, cols)
             again.append(b)
@@ -257,7 +259,9 @@ def _header(motion: Motion, tracks: list[_Track], anim: list[_Track], unit_cm, s
     table = []
     for tr in tracks:  # animated tracks in the order of the block payloads
         if tr.cls == "constant":
-            table.append({"joint": tr.joint, "kind": tr.kind, "class": "constant", "value": [float(v) for v in tr.value]})
+            table.append(
+                {"joint": tr.joint, "kind": tr.kind, "class": "constant", "value": [float(v) for v in tr.value]}
+            )
         elif tr.cls == "animated":
             table.append({"joint": tr.joint, "kind": tr.kind, "class": "animated", "base_step": tr.base})
     assert [x for x in tracks if x.cls == "animated"] == anim

@@ -3,8 +3,8 @@
 Data: smooth synthetic orientation streams at 100 Hz (a random walk of the rotation vector, low-pass
 filtered: joint-like motion with no static stretches), so that the sizes asked for (31 channels ×
 100k frames) exist without a skeleton reader. Thresholds are found per method to hit mean segment
-lengths 2..500 (maximum segment length 1000, as in the paper). All ratios are taken within one run (the machine is shared and noisy); each timing
-is the best of several repeats.
+lengths 2..500 (maximum segment length 1000, as in the paper). All ratios are taken within one run (the machine is
+shared and noisy); each timing is the best of several repeats.
 """
 
 from __future__ import annotations
@@ -133,9 +133,14 @@ def run_bench(channels: int = 31, frames: int = 100_000, quick: bool = False, pr
         for mode in ("batch", *STREAM_MODES):
             tab.add_row(method, mode, *[f"{pairs[(method, L, mode)]['ns_per_sample']:.0f}"
                                         if (method, L, mode) in pairs else "–" for L in TARGET_LENGTHS])
-        gain = {L: pairs[(method, L, "stream-numba")]["ns_per_sample"] / pairs[(method, L, "stream-batch")]["ns_per_sample"]
-                for L in TARGET_LENGTHS if (method, L, "stream-batch") in pairs}
-        tab.add_row(method, "numba push / C push_many", *[f"{gain[L]:.0f}×" if L in gain else "–" for L in TARGET_LENGTHS])
+        gain = {
+            L: pairs[(method, L, "stream-numba")]["ns_per_sample"] / pairs[(method, L, "stream-batch")]["ns_per_sample"]
+            for L in TARGET_LENGTHS
+            if (method, L, "stream-batch") in pairs
+        }
+        tab.add_row(
+            method, "numba push / C push_many", *[f"{gain[L]:.0f}×" if L in gain else "–" for L in TARGET_LENGTHS]
+        )
         records.append({"method": method, "mode": "stream-numba/stream-batch", "ratio_by_target_segment_length": gain})
     ratio = {L: pairs[("sw", L, "batch")]["ns_per_sample"] / pairs[("fastsw", L, "batch")]["ns_per_sample"]
              for L in TARGET_LENGTHS if ("sw", L, "batch") in pairs}

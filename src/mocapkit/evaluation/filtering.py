@@ -216,7 +216,9 @@ def figures(out: Path, markers=None, ball: str | None = None, penalty: float | N
     ax.plot(t, clean, "k", lw=1, label="clean")
     ax.plot(t, np.asarray(butterworth_filtfilt(y, fs, float(fc))).reshape(-1), color="tab:blue", lw=1,
             label=f"Butterworth filtfilt, Winter fc = {float(fc):.1f} Hz")
-    ax.plot(t, np.asarray(smoothing_spline(t, y)[0]).reshape(-1), color="tab:purple", lw=1, label="smoothing spline (GCV)")
+    ax.plot(
+        t, np.asarray(smoothing_spline(t, y)[0]).reshape(-1), color="tab:purple", lw=1, label="smoothing spline (GCV)"
+    )
     ax.plot(t, ex.evaluate(t)[:, 0], color="tab:red", lw=1.5, label=f"exact PPA, K = {ex.penalty:.3f}")
     ax.plot(t, it.evaluate(t)[:, 0], "--", color="tab:orange", lw=1, label="iterative PPA")
     for k in ex.parts[0].knots[1:-1]:
@@ -238,8 +240,15 @@ def figures(out: Path, markers=None, ball: str | None = None, penalty: float | N
         zb = np.asarray(butterworth_filtfilt(z[sel], markers.rate, float(fc))).reshape(-1)
         vb = np.gradient(zb, tt[sel])
         ab = np.gradient(vb, tt[sel])
-        paths.append(plot_ppa(tt[sel], z[sel], r, out / "fig3_juggling.png",
-                              title=f"juggled ball {ball}, Z, O = 2, "
-                                    f"{'automatic' if penalty is None else f'K = {penalty:g}'}; Butterworth fc = {float(fc):.1f} Hz",
-                              butter=(zb, vb, ab)))
+        paths.append(
+            plot_ppa(
+                tt[sel],
+                z[sel],
+                r,
+                out / "fig3_juggling.png",
+                title=f"juggled ball {ball}, Z, O = 2, "
+                f"{'automatic' if penalty is None else f'K = {penalty:g}'}; Butterworth fc = {float(fc):.1f} Hz",
+                butter=(zb, vb, ab),
+            )
+        )
     return paths

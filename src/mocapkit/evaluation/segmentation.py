@@ -81,10 +81,17 @@ def find_pairs(items, label_suffix: str = ".labels.txt") -> list[tuple[Path, Pat
             continue
         folder = Path(it)
         if not folder.is_dir():
-            raise InvalidParameterError(f"{it}: expected TAKE=LABELS or a folder of takes with TAKE.labels.txt beside them")
-        found = [(f, f.with_name(f.stem + label_suffix)) for f in sorted(folder.iterdir())
-                 if f.is_file() and not f.name.endswith(label_suffix) and f.suffix.lower() not in (".asf", ".txt", ".md")
-                 and f.with_name(f.stem + label_suffix).is_file()]
+            raise InvalidParameterError(
+                f"{it}: expected TAKE=LABELS or a folder of takes with TAKE.labels.txt beside them"
+            )
+        found = [
+            (f, f.with_name(f.stem + label_suffix))
+            for f in sorted(folder.iterdir())
+            if f.is_file()
+            and not f.name.endswith(label_suffix)
+            and f.suffix.lower() not in (".asf", ".txt", ".md")
+            and f.with_name(f.stem + label_suffix).is_file()
+        ]
         if not found:
             raise InvalidParameterError(f"{folder}: no take with a {label_suffix} file beside it")
         out += found
@@ -248,8 +255,11 @@ def run_mocap(cmu_dir, methods=MOCAP_METHODS, known_k: bool = False, log=None) -
             row.update(score(pred, take.ref, naming=name_segments(take.limbs, pred, take.ref.rate_hz)))
             rows.append(row)
             if log:
-                log(f"{take.name} {method}{MODE_SUFFIX[mode or 'unknown_k']}: frame agreement {row['frame_agreement']:.3f} RI (paper) {_f(row['ri_paper'])} F1 {row['f1']:.3f} "
-                    f"Cov {row['covering']:.3f} cuts {len(pred)}/{len(take.ref.cuts)} {dt:.2f} s")
+                log(
+                    f"{take.name} {method}{MODE_SUFFIX[mode or 'unknown_k']}: frame agreement "
+                    f"{row['frame_agreement']:.3f} RI (paper) {_f(row['ri_paper'])} F1 {row['f1']:.3f} "
+                    f"Cov {row['covering']:.3f} cuts {len(pred)}/{len(take.ref.cuts)} {dt:.2f} s"
+                )
     return rows
 
 

@@ -326,8 +326,11 @@ class Encoder:
         self._check_many(t, X)
         if self._native is None:  # the compiled kernels, one sample at a time
             pts = [p for i in range(n) for p in self.push(t[i], X[i])]
-            return native.Points(np.array([p.index for p in pts], dtype=np.int64),
-                                 np.array([p.time for p in pts]), np.array([p.values for p in pts]).reshape(-1, self.dim))
+            return native.Points(
+                np.array([p.index for p in pts], dtype=np.int64),
+                np.array([p.time for p in pts]),
+                np.array([p.values for p in pts]).reshape(-1, self.dim),
+            )
         if self._n == 0:
             self._first_t = float(t[0])
         out = self._native.push_many(t, X)

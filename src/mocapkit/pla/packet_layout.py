@@ -30,8 +30,8 @@ A packet (all of it covered by its CRC-16)::
 Reading is strict about the container: a bad header or a packet whose CRC matches but whose content
 is impossible is a :class:`~mocapkit.errors.MocapFormatError` naming the file and the packet. A packet
 whose CRC does not match (a radio error), or a last record cut short by the end of the file (a
-receiver's log cut by a power loss), is *reported*, not raised: it is dropped, and the missing sequence numbers of its sensor are listed, so the decoder can refuse to
-bridge the gap (:attr:`SensorPoints.gap_before`).
+receiver's log cut by a power loss), is *reported*, not raised: it is dropped, and the missing sequence numbers of its
+sensor are listed, so the decoder can refuse to bridge the gap (:attr:`SensorPoints.gap_before`).
 """
 
 from __future__ import annotations
@@ -281,7 +281,9 @@ def _parse_header(data: bytes, where: str) -> tuple[Header, int]:
     if magic != MAGIC:
         raise MocapFormatError(where, None, f"not a mocapkit packet file (magic {magic!r}, expected {MAGIC!r})")
     if version != VERSION:
-        raise MocapFormatError(where, None, f"packet format version {version} is not supported (this mocapkit reads {VERSION})")
+        raise MocapFormatError(
+            where, None, f"packet format version {version} is not supported (this mocapkit reads {VERSION})"
+        )
     pos = _FIXED.size
     sensors = []
     for i in range(n):
@@ -448,7 +450,9 @@ def decode_mkp(data: bytes, where: str) -> PacketFile:
             if a["seq"] is None:
                 missing = p.seq
                 if p.seq == 0 and p.ticks and p.ticks[0] != 0:
-                    raise MocapFormatError(where, None, f"{here}: {name}: sequence 0 starts at tick {p.ticks[0]}, not 0")
+                    raise MocapFormatError(
+                        where, None, f"{here}: {name}: sequence 0 starts at tick {p.ticks[0]}, not 0"
+                    )
             else:
                 missing = (p.seq - a["seq"] - 1) & 0xFFFF
                 if missing >= 0x8000:

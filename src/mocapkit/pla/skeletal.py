@@ -3,10 +3,10 @@ local translation a 3-D vector stream, each compressed with the PLA methods.
 
 Error in the user's terms (``max_position_error``): every joint's *world-space* position in every
 frame stays within the bound (and every End Site's with ``end_sites=True``, what ``compress`` asks by
-default: the reach below covers End Sites, which a joint's own rotation moves too). A rotation error ``δ`` at joint ``i`` moves every descendant ``k`` by at
-most ``2·sin(δ/2)·|p_k − p_i|``, and errors of a chain add up (triangle inequality, distances being
-kept by rotations), so with ``reach_i`` = the largest distance from joint ``i`` to any of its
-descendants or end sites (over all frames, from forward kinematics) and ``H`` the largest number of
+default: the reach below covers End Sites, which a joint's own rotation moves too). A rotation error ``δ`` at joint
+``i`` moves every descendant ``k`` by at most ``2·sin(δ/2)·|p_k − p_i|``, and errors of a chain add up (triangle
+inequality, distances being kept by rotations), so with ``reach_i`` = the largest distance from joint ``i`` to any of
+its descendants or end sites (over all frames, from forward kinematics) and ``H`` the largest number of
 animated joints on a root-to-leaf chain, budgets of ``E/H`` per joint — angle
 ``2·asin(E/(2·H·reach_i))`` for its rotation (encoded with the angle-bounded SW, which guarantees it)
 and ``E/H`` for its translation (Swing Filter with ``ε = E/(H·√3)``) — guarantee ``E`` everywhere. That
@@ -64,7 +64,9 @@ class SkeletalCompressed:
 
     def bytes_out(self) -> int:
         """Keyframes as float32 time + value (what the glTF buffer holds, without padding)."""
-        return sum(20 * c.n_points for c in self.rotations.values()) + sum(16 * c.n_points for c in self.translations.values())
+        return sum(20 * c.n_points for c in self.rotations.values()) + sum(
+            16 * c.n_points for c in self.translations.values()
+        )
 
     def decode(self) -> Motion:
         """Full-rate motion (SLERP / linear between keyframes) at the original frame times."""
@@ -327,7 +329,9 @@ def _to_position_bound(motion, E, rs, ts, maxlen, progress=None, end_sites=False
         elif reach[j] <= 0:  # nothing hangs below this joint: its rotation moves no position
             out.rotations[j] = compress(rs[j], "anglesw", 180.0, maxlen)
         else:
-            out.rotations[j] = compress(rs[j], "anglesw", math.degrees(2.0 * math.asin(min(1.0, share / (2.0 * reach[j])))), maxlen)
+            out.rotations[j] = compress(
+                rs[j], "anglesw", math.degrees(2.0 * math.asin(min(1.0, share / (2.0 * reach[j])))), maxlen
+            )
 
     parents = motion.skeleton.parents.tolist()
 

@@ -118,7 +118,8 @@ def verify_max_angle(signal: Signal, comp: Compressed, max_angle_deg: float) -> 
     m = max_deviation_deg(signal, comp)
     if not m <= max_angle_deg + BOUND_TOL_DEG:
         raise BoundViolationError(
-            f"{signal.source or signal.name or 'signal'}: maximum deviation {m:.6g}° exceeds the bound {max_angle_deg:g}°"
+            f"{signal.source or signal.name or 'signal'}: maximum deviation {m:.6g}° exceeds the bound "
+            f"{max_angle_deg:g}°"
         )
     return m
 

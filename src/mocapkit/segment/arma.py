@@ -32,8 +32,8 @@ stays an option (``differencing``, ``order``, ``cut``; steps 2, 4, 6 and 9):
    is appropriate" — the least F over the grid, F the mean squared one-step error of the model on the
    whole differenced sequence of a limb. ``order="parsimonious"``: the same F (below). The paper
    searches (p, q) by particle swarm optimisation (Eq. 23–24); an exhaustive search over the small
-   grid finds the exact optimum PSO approximates, so it replaces it. Because in-sample F can only fall as the order grows,
-   "parsimonious" takes the smallest p + q whose F is within ``order_rtol`` of the best (our earlier
+   grid finds the exact optimum PSO approximates, so it replaces it. Because in-sample F can only fall as the order
+   grows, "parsimonious" takes the smallest p + q whose F is within ``order_rtol`` of the best (our earlier
    default, with p ≤ 4, q ≤ 2).
 7. **R² per window** (Eq. 28–29) against ``r2_min`` = 0.6: a window whose R² is below the threshold
    holds a segmentation point. SSE and SST run over the samples the fit predicts (the first p, or
@@ -72,8 +72,8 @@ stays an option (``differencing``, ``order``, ``cut``; steps 2, 4, 6 and 9):
 10. **Median ensemble over limbs** (Eq. 32). The paper takes the median of each row of the matrix
     of per-limb cuts, which needs every limb to find the same number of cuts. We define: all cuts of
     all limbs are pooled and sorted; a cut within ``ensemble_tol`` samples of its group's first cut
-    joins that group, otherwise it starts a new one; a group with cuts from at least ``min_limbs`` different limbs gives one cut at
-    the median of its members (each limb first reduced to the median of its own members), other
+    joins that group, otherwise it starts a new one; a group with cuts from at least ``min_limbs`` different limbs gives
+    one cut at the median of its members (each limb first reduced to the median of its own members), other
     groups are dropped. When all limbs find the same cuts in the same order within the tolerance,
     this equals the paper's row-wise median. Groups are complete-linkage: a group spans at most
     ``ensemble_tol`` samples from its first cut, so chains of nearby cuts cannot merge far-apart ones.
@@ -141,7 +141,11 @@ def _r2(y: np.ndarray, resid: np.ndarray) -> float:
 def _lagged(z: np.ndarray, p: int, start: int) -> np.ndarray:
     """Design columns ``[z_{t-1}, ..., z_{t-p}]`` for ``t = start..m-1`` of each row of ``z`` ``(K, m)``."""
     m = z.shape[1]
-    return np.stack([z[:, start - i:m - i] for i in range(1, p + 1)], axis=2) if p else np.empty((z.shape[0], m - start, 0))
+    return (
+        np.stack([z[:, start - i : m - i] for i in range(1, p + 1)], axis=2)
+        if p
+        else np.empty((z.shape[0], m - start, 0))
+    )
 
 
 @dataclass(frozen=True)
@@ -364,7 +368,9 @@ class ARMASegmenter(Segmenter):
             if value not in allowed:
                 raise InvalidParameterError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
         if r2_fit == "sequence" and order == "aic":
-            raise InvalidParameterError("r2_fit='sequence' fits one model per limb: use order='best_f' or 'parsimonious'")
+            raise InvalidParameterError(
+                "r2_fit='sequence' fits one model per limb: use order='best_f' or 'parsimonious'"
+            )
         if r2_fit not in ("window", "sequence"):
             raise InvalidParameterError(f"r2_fit must be 'window' or 'sequence', got {r2_fit!r}")
         if not 0 < r2_min < 1:

@@ -166,7 +166,9 @@ def _check_curve(costs, c: float, noise_range) -> np.ndarray:
         lo, hi = (float(v) for v in noise_range)
         c = float(c)
     except (TypeError, ValueError):
-        raise InvalidParameterError(f"c must be a number and noise_range a pair of numbers, got {c!r}, {noise_range!r}") from None
+        raise InvalidParameterError(
+            f"c must be a number and noise_range a pair of numbers, got {c!r}, {noise_range!r}"
+        ) from None
     if not 0 <= lo < hi <= 1 or not 0 < c < np.inf:
         raise InvalidParameterError("need 0 <= noise_range[0] < noise_range[1] <= 1 and a finite c > 0")
     return C

@@ -192,7 +192,9 @@ class SkeletonView:
         unit = _field(panel, "unit", where)
         title = f"{panel.get('name', '')} — {role}"
         if max_error is not None:
-            title += f"\nmax error {float(max_error):.3g} cm" + (f" (bound {float(bound):.3g})" if bound is not None else "")
+            title += f"\nmax error {float(max_error):.3g} cm" + (
+                f" (bound {float(bound):.3g})" if bound is not None else ""
+            )
         if follow_half is None:
             _style_3d(ax, lim, fs, unit)
             ax.set_title(title, fontsize=fs * 0.85, pad=0)

@@ -74,8 +74,8 @@ class Points:
 
 
 def read_packets(path: Path) -> tuple[dict[str, Points], list[str]]:
-    """The points of every stream of a ``.mkp`` file and the reader's losses (damaged packets are dropped by the reader and
-    the points after a lost packet are marked, so the decode never bridges a gap)."""
+    """The points of every stream of a ``.mkp`` file and the reader's losses (damaged packets are dropped by the reader
+    and the points after a lost packet are marked, so the decode never bridges a gap)."""
     from mocapkit.jobs.readers import read_mkp
 
     pf = read_mkp(path)

@@ -229,7 +229,9 @@ class _Builder:
             by_name = {s["name"]: k for k, s in enumerate(panel["sensors"])}
             for name in signals:
                 if name not in points:
-                    self.notes.append(f"{path.name}: no points of sensor {name} of {opath.name}; its decode is not drawn")
+                    self.notes.append(
+                        f"{path.name}: no points of sensor {name} of {opath.name}; its decode is not drawn"
+                    )
             for name, pts in points.items():
                 if name not in signals:
                     self.notes.append(f"{path.name}: sensor {name} is not in {opath.name}; not drawn")

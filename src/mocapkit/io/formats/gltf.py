@@ -156,11 +156,15 @@ def build_gltf(comp, unit_m: float = 0.01, name: str = "mocapkit", rotations: st
         xyzw = np.concatenate([q[:, 1:], q[:, :1]], axis=1)
         out = blob.add(quantize_rotations(xyzw) if rotations == "short" else xyzw, g.VEC4, minmax=True)
         samplers.append(g.AnimationSampler(input=times_accessor(c.times), output=out, interpolation="LINEAR"))
-        channels.append(g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="rotation")))
+        channels.append(
+            g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="rotation"))
+        )
     for j, c in sorted(comp.translations.items()):
         out = blob.add(c.values * unit_m, g.VEC3, minmax=True)
         samplers.append(g.AnimationSampler(input=times_accessor(c.times), output=out, interpolation="LINEAR"))
-        channels.append(g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="translation")))
+        channels.append(
+            g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="translation"))
+        )
     roots = [j for j in range(sk.n_joints) if sk.parents[j] < 0]
     extras = {EXTRAS_KEY: {
         "n_joints": sk.n_joints,
@@ -355,7 +359,9 @@ def gltf_buffer_files(path: str | Path) -> list[Path]:
         buffers = _json(p.read_bytes()).get("buffers")
     except (OSError, _Bad):
         return []
-    found = (buffer_file_path(p, b.get("uri")) for b in buffers if isinstance(b, dict)) if isinstance(buffers, list) else ()
+    found = (
+        (buffer_file_path(p, b.get("uri")) for b in buffers if isinstance(b, dict)) if isinstance(buffers, list) else ()
+    )
     return [f for f in found if f is not None and f.is_file()]
 
 
@@ -540,7 +546,9 @@ def read_gltf(path: str | Path, rate: float | None = None, data: bytes | None = 
         except (TypeError, ValueError):
             raise InvalidParameterError(f"rate must be a number of Hz, got {rate!r}") from None
         if not 1.0 / MAX_FRAME_TIME <= r <= 1.0 / MIN_FRAME_TIME:
-            raise InvalidParameterError(f"rate must be between {1 / MAX_FRAME_TIME:g} and {1 / MIN_FRAME_TIME:g} Hz, got {rate!r}")
+            raise InvalidParameterError(
+                f"rate must be between {1 / MAX_FRAME_TIME:g} and {1 / MIN_FRAME_TIME:g} Hz, got {rate!r}"
+            )
         rate = r
     doc, blob = _load(p, data)
     try:

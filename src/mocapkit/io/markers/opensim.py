@@ -266,8 +266,12 @@ def read_trc(path: str | Path) -> Markers:
         if len(cells) > width:
             extra = cells[width:]
             if any(c.strip() for c in extra):
-                raise MocapFormatError(src, i + 1, f"expected {width} {'tab' if delim == chr(9) else 'comma'}-separated cells (Frame#, Time and "
-                                       f"{m} x 3 coordinates), found {len(cells)}")
+                raise MocapFormatError(
+                    src,
+                    i + 1,
+                    f"expected {width} {'tab' if delim == chr(9) else 'comma'}-separated cells (Frame#, Time and "
+                    f"{m} x 3 coordinates), found {len(cells)}",
+                )
             cells = cells[:width]
         elif len(cells) < width:
             if len(cells) < 2:

@@ -353,7 +353,9 @@ class _Parser:
             row = values[j]
             gap = np.isnan(row)
             if gap[:k0].any():
-                raise self.err(first_data + j, f"{field_names[int(np.flatnonzero(gap[:k0])[0])]}: empty value is not a number")
+                raise self.err(
+                    first_data + j, f"{field_names[int(np.flatnonzero(gap[:k0])[0])]}: empty value is not a number"
+                )
             trip = gap[k0:].reshape(n_markers, 3)
             partial = np.flatnonzero(trip.any(axis=1) & ~trip.all(axis=1))
             if partial.size:

@@ -30,8 +30,9 @@ whose last line has another number of cells than the line before, or whose last 
 has fewer decimals than the same column on the rows before it (cut in the middle of a number), is
 an error naming the line: the file was cut short. Nexus writes 6 significant digits, so the decimals
 of a column vary and a cut inside the last value often cannot be told: then the row is read with a
-warning (``meta["warnings"]`` and :class:`~mocapkit.errors.MocapWarning`). Rows that, padded with gaps, would need far more values than the file holds are refused
-before allocation; pipes and devices are read in bounded chunks (:mod:`mocapkit.io.text.input`).
+warning (``meta["warnings"]`` and :class:`~mocapkit.errors.MocapWarning`). Rows that, padded with gaps, would need far
+more values than the file holds are refused before allocation; pipes and devices are read in bounded chunks
+(:mod:`mocapkit.io.text.input`).
 """
 
 from __future__ import annotations

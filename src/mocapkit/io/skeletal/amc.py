@@ -721,7 +721,11 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
     last_line = len(lines)  # a line cut short can only be the last one, when there is no final newline
 
     def cut(ln: int | None) -> str:
-        return "" if final_newline or ln != last_line else " (the file ends on this line without a final newline: cut short?)"
+        return (
+            ""
+            if final_newline or ln != last_line
+            else " (the file ends on this line without a final newline: cut short?)"
+        )
 
     def close_frame(at_end: bool = False) -> None:
         if not required <= seen:
@@ -1145,7 +1149,9 @@ def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton,
               "limit_deg": limit}
     if per_joint[worst] > limit:
         over = {n: int((r > limit).sum()) for n, r in residuals.items() if (r > limit).any()}
-        others = ", ".join(f"{n} ({k} frame{'s' if k > 1 else ''})" for n, k in sorted(over.items(), key=lambda x: -x[1]))
+        others = ", ".join(
+            f"{n} ({k} frame{'s' if k > 1 else ''})" for n, k in sorted(over.items(), key=lambda x: -x[1])
+        )
         raise InvalidSignalError(
             f"joint {worst!r} frame {frame + 1}: the rotation is {per_joint[worst]:.3g} deg away from the closest one "
             f"its dofs ({dof_text[worst]}) can express (allowed {limit:g} deg); over the limit: {others}"

@@ -150,7 +150,9 @@ def _parse_hierarchy(tk: _Tokens) -> dict:
             elif up == "CHANNELS":
                 ntok, nline = tk.next()
                 if not _UINT.fullmatch(ntok):
-                    raise MocapFormatError(path, nline, f"CHANNELS count {ntok[:40]!r} of joint {name!r} is not an integer")
+                    raise MocapFormatError(
+                        path, nline, f"CHANNELS count {ntok[:40]!r} of joint {name!r} is not an integer"
+                    )
                 n = int(ntok)
                 if not 0 <= n <= 6:
                     raise MocapFormatError(path, nline, f"CHANNELS count {n} of joint {name!r} is not between 0 and 6")
@@ -160,7 +162,10 @@ def _parse_hierarchy(tk: _Tokens) -> dict:
                     canon = _CANON.get(c.lower())
                     if canon is None:
                         raise MocapFormatError(
-                            path, cl, f"unknown channel {c[:40]!r} of joint {name!r} (expected one of {', '.join(_VALID_CHANNELS)})"
+                            path,
+                            cl,
+                            f"unknown channel {c[:40]!r} of joint {name!r} "
+                            f"(expected one of {', '.join(_VALID_CHANNELS)})",
                         )
                     if canon in chans:
                         raise MocapFormatError(path, cl, f"channel {canon} repeated in joint {name!r}")
@@ -281,7 +286,9 @@ def _strict_rows(data: str, first: int, skel: Skeleton, path: str, frame0: int =
         for t in toks:
             found = NUMBER_RE.findall(t)
             if "".join(found) != t:
-                raise MocapFormatError(path, lineno, f"{_field(skel, k + 1, len(nums))}: cannot read the numbers in {t[:40]!r}")
+                raise MocapFormatError(
+                    path, lineno, f"{_field(skel, k + 1, len(nums))}: cannot read the numbers in {t[:40]!r}"
+                )
             nums.extend(found)
         if len(nums) != C:
             raise MocapFormatError(path, lineno, f"expected {C} channel values (from the hierarchy), got {len(nums)}")
@@ -536,12 +543,18 @@ def _check_writable(motion: Motion, vals: np.ndarray) -> None:
     bad = ~(np.abs(skel.offsets) <= MAX_ABS)
     if bad.any():
         j = int(np.flatnonzero(bad.any(axis=1))[0])
-        raise InvalidSignalError(f"OFFSET of joint {skel.names[j]!r} is not finite or too large: {skel.offsets[j].tolist()}")
+        raise InvalidSignalError(
+            f"OFFSET of joint {skel.names[j]!r} is not finite or too large: {skel.offsets[j].tolist()}"
+        )
     for j, off in skel.end_sites:
         if not all(abs(float(x)) <= MAX_ABS for x in off):
-            raise InvalidSignalError(f"End Site OFFSET of joint {skel.names[j]!r} is not finite or too large: {list(off)}")
+            raise InvalidSignalError(
+                f"End Site OFFSET of joint {skel.names[j]!r} is not finite or too large: {list(off)}"
+            )
     if vals.shape != (motion.n_frames, skel.n_channels):
-        raise InvalidSignalError(f"channel values have shape {vals.shape}, expected {(motion.n_frames, skel.n_channels)}")
+        raise InvalidSignalError(
+            f"channel values have shape {vals.shape}, expected {(motion.n_frames, skel.n_channels)}"
+        )
     bad = ~(np.abs(vals) <= MAX_ABS)
     if bad.any():
         r, c = (int(x[0]) for x in np.nonzero(bad))
@@ -564,7 +577,11 @@ def write_bvh(path: str | Path, motion: Motion, precision: int = 6, use_channel_
     if isinstance(precision, bool) or not isinstance(precision, (int, np.integer)) or not 0 <= precision <= 17:
         raise InvalidParameterError(f"precision must be an integer number of decimals from 0 to 17, got {precision!r}")
     skel = motion.skeleton
-    vals = motion.channel_values if (use_channel_values and motion.channel_values is not None) else channels_from_motion(motion)
+    vals = (
+        motion.channel_values
+        if (use_channel_values and motion.channel_values is not None)
+        else channels_from_motion(motion)
+    )
     vals = np.asarray(vals, dtype=np.float64).reshape(motion.n_frames, -1)
     _check_writable(motion, vals)
     out = ["HIERARCHY"]

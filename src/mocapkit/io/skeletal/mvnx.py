@@ -223,7 +223,9 @@ class _Reader:
             if not label:
                 self.fail("<segment> without a label")
             if label in self.seg_index:
-                self.fail(f"segment {label!r} is defined twice (first on line {self.segments[self.seg_index[label]]['line']})")
+                self.fail(
+                    f"segment {label!r} is defined twice (first on line {self.segments[self.seg_index[label]]['line']})"
+                )
             if self.frames_seen:
                 self.fail(f"segment {label!r} after the frames")
             self.seg_index[label] = len(self.segments)
@@ -281,7 +283,9 @@ class _Reader:
         if path == _POINT and self.point is not None:
             seg = self.segments[-1]
             if self.point["pos"] is None:
-                self.fail(f"point {self.point['label']!r} of segment {seg['label']!r} has no <pos_b>", self.point["line"])
+                self.fail(
+                    f"point {self.point['label']!r} of segment {seg['label']!r} has no <pos_b>", self.point["line"]
+                )
             seg["points"].setdefault(self.point["label"], self.point["pos"])
             self.point = None
         elif path == _JOINT and self.joint is not None:
@@ -345,7 +349,9 @@ def read_mvnx(path: str | Path, gap_tolerance_m: float = GAP_TOLERANCE_M) -> Mot
         with open(path, "rb") as fh:
             parser.ParseFile(fh if is_regular(path) else _Bounded(fh, src, textinput.MAX_STREAM_BYTES))
     except expat.ExpatError as e:
-        raise MocapFormatError(src, e.lineno, f"malformed XML: {expat.ErrorString(e.code)} (column {e.offset + 1})") from None
+        raise MocapFormatError(
+            src, e.lineno, f"malformed XML: {expat.ErrorString(e.code)} (column {e.offset + 1})"
+        ) from None
     except (FileNotFoundError, IsADirectoryError, PermissionError) as e:
         raise MocapFormatError(src, None, e.strerror or str(e)) from None
     except (LookupError, UnicodeError, ValueError) as e:  # e.g. an unknown encoding in the XML declaration
@@ -374,7 +380,9 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
         (ps, pp, l1), (cs, cp, l2) = jt["connector1"], jt["connector2"]
         for seg, pt, ln in ((ps, pp, l1), (cs, cp, l2)):
             if seg not in r.seg_index:
-                raise MocapFormatError(src, ln, f"joint {jt['label']!r}: no segment {seg!r} (segments: {', '.join(labels[:6])}, …)")
+                raise MocapFormatError(
+                    src, ln, f"joint {jt['label']!r}: no segment {seg!r} (segments: {', '.join(labels[:6])}, …)"
+                )
             if pt not in segs[r.seg_index[seg]]["points"]:
                 raise MocapFormatError(src, ln, f"joint {jt['label']!r}: segment {seg!r} has no point {pt!r}")
         p, c = r.seg_index[ps], r.seg_index[cs]
@@ -447,9 +455,9 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
     if animated:
         worst = max(animated, key=gaps.get)
         warnings.append(
-            f"segment lengths vary: {len(animated)} joint(s) move up to {gaps[worst] * 1000:.3g} mm ({worst}) away from "
-            f"their connector points (tolerance {tol * 1000:g} mm); they get position channels so that forward "
-            "kinematics reproduces the file's segment positions"
+            f"segment lengths vary: {len(animated)} joint(s) move up to {gaps[worst] * 1000:.3g} mm ({worst}) "
+            f"away from their connector points (tolerance {tol * 1000:g} mm); they get position channels so that "
+            "forward kinematics reproduces the file's segment positions"
         )
 
     children = {parent[s] for s in range(S) if parent[s] >= 0}
@@ -513,13 +521,17 @@ def _times(r: _Reader, src: str, warnings: list[str]) -> tuple[np.ndarray, float
         if not has_t:
             raise MocapFormatError(src, r.subject_line, "no frameRate on <subject> and no time attribute on the frames")
         if N < 2:
-            raise MocapFormatError(src, r.subject_line, "no frameRate on <subject> and a single frame: the rate is unknown")
+            raise MocapFormatError(
+                src, r.subject_line, "no frameRate on <subject> and a single frame: the rate is unknown"
+            )
         return t_file, 1.0 / float(np.median(np.diff(t_file))), "time attribute (no frameRate)"
     if all(i is not None for i in r.indices):
         k = np.array(r.indices, dtype=np.float64)
         if N > 1 and np.any(np.diff(k) <= 0):
             n = int(np.flatnonzero(np.diff(k) <= 0)[0]) + 1
-            raise MocapFormatError(src, r.frame_lines[n], f"frame index {r.indices[n]} does not follow index {r.indices[n - 1]}")
+            raise MocapFormatError(
+                src, r.frame_lines[n], f"frame index {r.indices[n]} does not follow index {r.indices[n - 1]}"
+            )
         k -= k[0]
     else:
         k = np.arange(N, dtype=np.float64)
