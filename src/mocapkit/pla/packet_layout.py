@@ -41,6 +41,7 @@ import math
 import struct
 import zlib
 from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 
@@ -409,6 +410,19 @@ def parse_packet(pkt: bytes, bits: int) -> _Packet:
     return _Packet(sensor, seq, last, ticks, codes)
 
 
+class _Stream(TypedDict):
+    """What :func:`decode_mkp` gathers of one sensor while it reads the packets."""
+
+    ticks: list[int]
+    codes: list[tuple[int, int, int, int]]
+    gap: list[bool]
+    packets: int
+    lost: list[int]
+    ended: bool
+    seq: int | None
+    last_tick: int
+
+
 def decode_mkp(data: bytes, where: str) -> PacketFile:
     """Decode a ``.mkp`` file's bytes: every sensor's points that arrived, the damaged and lost packets;
     ``where`` (the file's path, or any label) names the file in errors."""
@@ -416,7 +430,7 @@ def decode_mkp(data: bytes, where: str) -> PacketFile:
     bits = header.bits
     m = (1 << bits) - 1
     h2 = half_step(bits) ** 2
-    acc = [{"ticks": [], "codes": [], "gap": [], "packets": 0, "lost": [], "ended": False, "seq": None,
+    acc: list[_Stream] = [{"ticks": [], "codes": [], "gap": [], "packets": 0, "lost": [], "ended": False, "seq": None,
             "last_tick": -1} for _ in header.sensors]
     damaged: list[Damaged] = []
     index = 0

@@ -150,9 +150,9 @@ def _reach(motion: Motion) -> np.ndarray:
         pos = np.empty(J, dtype=np.int64)
         pos[order] = np.arange(J)
         order_arr = np.asarray(order, dtype=np.int64)
-        ends = sorted(range(len(sk.end_sites)), key=lambda e: pos[sk.end_sites[e][0]])
-        end_pos = np.array([pos[sk.end_sites[e][0]] for e in ends], dtype=np.int64)
-        ends = np.asarray(ends, dtype=np.int64)
+        end_order = sorted(range(len(sk.end_sites)), key=lambda e: pos[sk.end_sites[e][0]])
+        end_pos = np.array([pos[sk.end_sites[e][0]] for e in end_order], dtype=np.int64)
+        ends = np.asarray(end_order, dtype=np.int64)
         for j in range(J):
             a, b = int(pos[j]), int(pos[j] + size[j])
             r = 0.0
@@ -238,6 +238,7 @@ def compress_motion(
         return out
     if target_icr is not None:
         return _to_icr(motion, method, target_icr, rs, ts, max_segment_length, progress)
+    assert max_position_error is not None  # exactly one of the three is given (checked above)
     return _to_position_bound(motion, float(max_position_error), rs, ts, max_segment_length, progress, end_sites)
 
 
@@ -393,8 +394,8 @@ def report(comp: SkeletalCompressed, unit_cm: float | None = None) -> dict:
     perr = position_errors(m, dec)
     eerr = position_errors(m, dec, end_sites=True)[:, m.skeleton.n_joints:]
     k = unit_cm if unit_cm is not None else float("nan")
-    ang = [angular_distance(m.rotations[:, j], dec.rotations[:, j], degrees=True) for j in comp.rotations]
-    ang = np.concatenate(ang) if ang else np.zeros(1)
+    per_track = [angular_distance(m.rotations[:, j], dec.rotations[:, j], degrees=True) for j in comp.rotations]
+    ang = np.concatenate(per_track) if per_track else np.zeros(1)
     return {
         "method": comp.method,
         **{k2: v for k2, v in comp.info.items() if k2 != "max_position_error"},

@@ -150,6 +150,7 @@ def compress_to(
         return _finite(compress(signal, method, threshold, max_segment_length))
     if target_icr is not None:
         return _finite(threshold_for_icr(signal, method, target_icr, max_segment_length))
+    assert max_angle is not None  # exactly one of the three is given (checked above)
     comp = threshold_for_max_angle(signal, method, float(max_angle), max_segment_length)
     verify_max_angle(signal, comp, float(max_angle))
     return comp
