@@ -217,8 +217,10 @@ def predict_one_step(fit: ARMAFit, k: int, x: np.ndarray, history: np.ndarray) -
     beta = fit.coef[k, 1:1 + fit.p]
     lam = fit.coef[k, 1 + fit.p:]
     lags = fit.p
+    long_coef = fit.long_coef
     if fit.q:
-        L = fit.long_coef.shape[1] - 1
+        assert long_coef is not None  # fit_arma keeps the long AR whenever q > 0
+        L = long_coef.shape[1] - 1
         lags = max(fit.p, L + fit.q)
     if history.size < lags:
         raise InvalidParameterError(f"one-step prediction needs {lags} samples of history, got {history.size}")
@@ -228,7 +230,8 @@ def predict_one_step(fit: ARMAFit, k: int, x: np.ndarray, history: np.ndarray) -
     for i in range(1, fit.p + 1):
         pred += beta[i - 1] * full[lags - i:lags - i + n]
     if fit.q:
-        lc = fit.long_coef[k]
+        assert long_coef is not None
+        lc = long_coef[k]
         m = n + fit.q  # innovations for samples -q..n-1 of x
         eps = full[lags - fit.q:].copy()
         eps -= lc[0]
@@ -468,7 +471,7 @@ class ARMASegmenter(Segmenter):
         d = self.diff_order
         if self.differencing == "adf":
             bounds = self.windows(x.size)
-            out = []
+            out: list[tuple[np.ndarray, int, int] | None] = []
             for s, e in bounds:
                 w = x[s:e]
                 if self._stationary(w):
@@ -489,7 +492,7 @@ class ARMASegmenter(Segmenter):
         ``armax`` + ``aic`` over p, q ≤ 5), σ̂² over the samples every order of the grid predicts."""
         grid = [(p, q) for p in self.p_range for q in self.q_range if p + q > 0]
         tail = max((max(2 * (p + q), p + q + 2) + q) if q else p for p, q in grid)
-        best = [None] * len(series)
+        best: list[tuple[int, int] | None] = [None] * len(series)
         by_len: dict[int, list[int]] = {}
         for k, item in enumerate(series):
             if item is not None:
@@ -514,11 +517,11 @@ class ARMASegmenter(Segmenter):
         d = self.diff_order
         if self.r2_fit == "sequence":
             z = np.diff(x, n=d) if d else x.copy()
-            (p, q), F = self.select_order(z)
+            (p, q), F_seq = self.select_order(z)
             scale = max(float(np.abs(z).max()) if z.size else 0.0, np.finfo(float).tiny)
-            return self._channel_sequence(z, self.windows(z.size), (p, q), F, scale)
+            return self._channel_sequence(z, self.windows(z.size), (p, q), F_seq, scale)
         bounds, series = self.window_models(x)
-        F = None
+        F: dict | None = None
         if self.order == "aic":
             orders = self._aic_orders(series)
         else:  # one order per limb, by Eq. 25 on the whole differenced sequence
@@ -557,7 +560,7 @@ class ARMASegmenter(Segmenter):
             # "is the current model suitable to continue to describe the subsequent sequence" (Sec. 5.3):
             # the preceding window's model, where it models the same contiguous series
             use_prev = self.differencing == "fixed" and prev is not None and prev[2] == dk
-            if use_prev:
+            if use_prev and prev is not None:
                 fp, rowp = fits[k - 1]
                 err = seg - predict_one_step(fp, rowp, seg, prev[0])
                 idx = np.arange(seg.size)

@@ -63,6 +63,7 @@ def _segment_costs(z: np.ndarray, cost: str, gamma: float | None) -> np.ndarray:
     lens = np.arange(n + 1)[None, :] - np.arange(n + 1)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         if cost == "rbf":
+            assert gamma is not None  # cost_curve sets it for "rbf"
             K = rbf_kernel(z, None, gamma)
             S = np.zeros((n + 1, n + 1))
             S[1:, 1:] = K.cumsum(0).cumsum(1)

@@ -104,7 +104,8 @@ class MLPSegmenter(Segmenter):
             raise InvalidParameterError("train must be a sequence of (X, labels) pairs") from None
         if not pairs:
             raise InvalidParameterError("train must hold at least one labelled take")
-        signals, labels = [], []
+        signals: list[np.ndarray] = []
+        labels: list[np.ndarray] = []
         for i, pair in enumerate(pairs):
             if not isinstance(pair, (tuple, list)) or len(pair) != 2:
                 raise InvalidParameterError(f"train[{i}] must be an (X, labels) pair")

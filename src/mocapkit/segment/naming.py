@@ -211,7 +211,7 @@ def _mmd_matrix(parts: list[np.ndarray], gamma: float) -> np.ndarray:
     stacked = np.concatenate(parts)
     sizes = np.array([p.shape[0] for p in parts])
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    sums = np.empty((len(parts), len(parts)))
+    sums: np.ndarray = np.empty((len(parts), len(parts)))
     for i, p in enumerate(parts):
         g = np.exp(-gamma * cdist(p, stacked, "sqeuclidean"))
         sums[i] = np.add.reduceat(g.sum(axis=0), starts)

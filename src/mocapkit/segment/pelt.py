@@ -261,7 +261,7 @@ class PELTSegmenter(Segmenter):
                 self.pen_ = 0.0 if pen is None else pen
                 if pen is not None and pen > 0.0:
                     bkps = algo.predict(pen=pen)
-            elif self.n_cuts is not None:
+            elif isinstance(self.n_cuts, int):  # a known count (optional_n_cuts: None, "auto" or an int)
                 if self.n_cuts > 0:
                     pen0 = self.pen if self.pen is not None else auto
                     if pen0 <= 0.0:  # no variation: any penalty is as good as another

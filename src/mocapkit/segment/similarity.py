@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -321,7 +322,7 @@ def similarity_table(segments, names=None, *, align: str = "limb", band: int | N
     names = list(names) if names is not None else [f"col{j}" for j in range(d)]
     if len(names) != d:
         raise InvalidParameterError(f"{len(names)} names for {d} columns")
-    pairs = []
+    pairs: list[dict[str, Any]] = []
     for i in range(len(segs)):
         for j in range(i + 1, len(segs)):
             s, t = segs[i], segs[j]
