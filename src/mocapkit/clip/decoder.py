@@ -134,7 +134,7 @@ class Clip:
             raise self._bad("header has no skeleton")
         if s.keys() != SKELETON_KEYS:
             raise self._bad(f"header field skeleton: expected the fields {sorted(SKELETON_KEYS)}, got {sorted(s)[:10]}")
-        names, parents, offsets, channels = (s.get(k) for k in ("names", "parents", "offsets", "channels"))
+        names, parents, offsets, channels = (s[k] for k in ("names", "parents", "offsets", "channels"))
         if not isinstance(names, list) or not names or not all(isinstance(x, str) for x in names):
             raise self._bad("skeleton names must be a non-empty list of strings")
         for x in names:
@@ -156,11 +156,13 @@ class Clip:
             ):
                 raise self._bad(f"skeleton channels of {names[j]!r} are not BVH channel names: {c!r}")
             ch.append(tuple(c))
-        ends = []
+        ends: list[tuple[int, tuple[float, float, float]]] = []
         for e in s["end_sites"] if isinstance(s["end_sites"], list) else [None]:
             if not (isinstance(e, list) and len(e) == 2):
                 raise self._bad(f"skeleton end site {str(e)[:60]!r} is not [joint, [x, y, z]]")
-            ends.append((self._int(e[0], "end site joint", 0, J - 1), tuple(self._floats(e[1], 3, "end site offset"))))
+            j = self._int(e[0], "end site joint", 0, J - 1)
+            ex, ey, ez = self._floats(e[1], 3, "end site offset")
+            ends.append((j, (ex, ey, ez)))
         if len({j for j, _ in ends}) != len(ends):
             raise self._bad("skeleton end_sites: a joint has two End Sites (BVH holds one)")
         meta = {}

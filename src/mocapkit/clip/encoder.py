@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -126,13 +127,14 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
         t.tol = (rt if t.kind == "rotation" else tt)[t.joint]
         if not math.isfinite(t.tol):
             t.tol = free_rot
+        assert t.x is not None  # _tracks gives every animated track its values
         lo, hi = t.x.min(axis=0), t.x.max(axis=0)
         if np.all(hi - lo <= 2.0 * t.tol):  # one value fits the corridor: a constant track
             mid = 0.5 * (lo + hi)
             t.cls, t.value = "constant", (exp_map(mid) if t.kind == "rotation" else mid)
         t.base = 2.0 * t.tol * 2.0 ** (START_LEVELS / 2)
     anim = [t for t in anim if t.cls == "animated"]
-    if anim and max(float(np.abs(t.x).max()) / t.base for t in anim) >= 2.0**40:
+    if anim and max(float(np.abs(t.x).max()) / t.base for t in anim if t.x is not None) >= 2.0**40:
         raise InvalidParameterError(f"max position error {bound:g} is too small for the range of this motion's values")
     starts = list(range(0, N, block_frames))
     spans = [(a, min(a + block_frames, N)) for a in starts]
@@ -232,7 +234,7 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     if worst > bound:
         raise BoundViolationError(f"the written clip decodes to a {metric} error of {worst:.6g} > {bound:g}")
     k = unit_cm if unit_cm is not None else float("nan")
-    report = {
+    report: dict[str, Any] = {
         "format": "mkc", "bytes": len(data), "error_metric": metric, "bound": bound,
         "shell_distance": shell_distance, "unit_cm": unit_cm,
         "max_joint_error": float(je.max()), "mean_joint_error": float(je.mean()),
@@ -259,6 +261,7 @@ def _header(motion: Motion, tracks: list[_Track], anim: list[_Track], unit_cm, s
     table = []
     for tr in tracks:  # animated tracks in the order of the block payloads
         if tr.cls == "constant":
+            assert tr.value is not None  # a constant track holds its value
             table.append(
                 {"joint": tr.joint, "kind": tr.kind, "class": "constant", "value": [float(v) for v in tr.value]}
             )
