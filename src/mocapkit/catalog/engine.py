@@ -21,6 +21,7 @@ import os
 import re
 from decimal import Decimal
 from pathlib import Path
+from typing import Any
 from urllib.parse import unquote, urlsplit, urlunsplit
 
 from mocapkit.catalog import schema
@@ -49,7 +50,7 @@ def redact(url: str) -> str:
     return _hide_in_text(url)
 
 
-def _clean(message: str, url: str) -> str:
+def _clean(message: str | BaseException, url: str) -> str:
     """An engine's error on one line, without the URL's password."""
     text = " ".join(part.strip() for part in str(message).splitlines() if part.strip())
     if not is_postgres(url):
@@ -344,17 +345,17 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
             raise MocapError(f"{shown}: a PostgreSQL catalog needs psycopg: pip install "
                              "'mocapkit[postgres]'") from None
         try:
-            extra = {}
+            extra: dict[str, Any] = {}
             if read_only:  # added to the URL's own options (a search_path, say)
                 from psycopg.conninfo import conninfo_to_dict
 
                 given = conninfo_to_dict(url).get("options") or ""
                 extra["options"] = f"{given} -c default_transaction_read_only=on".strip()
-            conn = psycopg.connect(url, connect_timeout=CONNECT_TIMEOUT_S, autocommit=True, **extra)
+            pg_conn = psycopg.connect(url, connect_timeout=CONNECT_TIMEOUT_S, autocommit=True, **extra)
         except (psycopg.Error, ValueError) as e:
             raise MocapError(f"{shown}: cannot open the catalog: {_clean(e, url)}") from None
         errors: tuple = (psycopg.Error,)
-        cat = Catalog(url, "postgresql", conn, errors)
+        cat = Catalog(url, "postgresql", pg_conn, errors)
     elif re.match(r"^[A-Za-z][A-Za-z0-9+.-]*://", url):
         raise MocapError(f"{shown}: unknown catalog URL scheme (use postgresql://... or a DuckDB file path)")
     else:
@@ -373,6 +374,7 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
             raise MocapError(f"{shown}: the folder {path.parent} does not exist")
         # never a progress bar on stdout (a long query would draw one into the CSV); read-only: no file but
         # this one (no COPY TO, ATTACH, read_csv, INSTALL/LOAD), and the settings locked
+        config: dict[str, str | bool | int | float | list[str]]
         config = ({"enable_external_access": False, "autoinstall_known_extensions": False,
                    "autoload_known_extensions": False} if read_only else {})
         try:

@@ -163,6 +163,7 @@ def add_rows(catalog: Catalog, batch_rows: Iterable[dict]) -> dict:
     by_id: dict[str, dict] = {}
     for row in batch_rows:
         by_id[run_id(row)] = row
+    metrics: list[tuple[str, str | None, str, float]]  # (run, signal or None, name, value)
     runs, metrics, segments, pieces, outputs, recs = [], [], [], [], [], []
     for rid, row in by_id.items():
         record = json.loads(row["record_json"]) if row.get("record_json") else None
