@@ -9,6 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
 
 COLORS = {"cplr": "tab:blue", "swing": "tab:orange", "sw": "tab:green", "fastsw": "tab:red", "anglesw": "tab:purple"}
 LABELS = {"cplr": "CPLR", "swing": "SF", "sw": "SW", "fastsw": "fastSW", "anglesw": "angle-SW"}
@@ -198,6 +199,7 @@ def plot_arma_diagnostics(windows, names, out_png, title: str = "", per_limb: in
     fig = plt.figure(figsize=(11, height))
     top = fig.add_gridspec(1, 1, left=0.07, right=0.99, top=1 - 0.6 / height,
                            bottom=1 - (head - 0.95) / height).subplots()
+    assert isinstance(top, Axes)  # one row, one column: a single Axes
     gs = fig.add_gridspec(rows, 3, left=0.07, right=0.99, top=1 - (head + 0.2) / height, bottom=0.4 / height,
                           hspace=0.55, wspace=0.08)
     for j, name in enumerate(names):

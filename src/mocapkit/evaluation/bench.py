@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from functools import partial
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -22,6 +23,9 @@ from mocapkit.pla import fastsw as fastsw_mod
 from mocapkit.pla.base import prepared_values
 from mocapkit.pla.tune import threshold_for_icr
 from mocapkit.quat import from_scipy
+
+if TYPE_CHECKING:
+    from rich.console import RenderableType
 
 METHODS = ("fastsw", "sw", "cplr", "swing", "anglesw")
 TARGET_LENGTHS = (2, 5, 10, 20, 50, 100, 200, 500)
@@ -84,7 +88,7 @@ def run_bench(channels: int = 31, frames: int = 100_000, quick: bool = False, pr
     sig = Signal(t, q[0], name="synthetic")
     X = prepared_values(sig)
     records = []
-    pairs: dict[tuple[str, int], dict] = {}
+    pairs: dict[tuple[str, int, str], dict] = {}
     for method in METHODS:
         # anglesw does O(segment) work per sample: a shorter signal keeps its bisection affordable
         s_m = sig if method != "anglesw" else Signal(sig.times[: n1 // 4], sig.values[: n1 // 4])
@@ -146,7 +150,7 @@ def run_bench(channels: int = 31, frames: int = 100_000, quick: bool = False, pr
              for L in TARGET_LENGTHS if ("sw", L, "batch") in pairs}
     tab.add_row("SW/fastSW", "batch", *[f"{ratio[L]:.1f}×" if L in ratio else "–" for L in TARGET_LENGTHS])
     records.append({"method": "sw/fastsw", "mode": "batch", "ratio_by_target_segment_length": ratio})
-    lines = [tab,
+    lines: list[RenderableType] = [tab,
              f"fastSW batch, {channels} channels × {frames} frames in one call: {ns_many:.2f} ns/sample "
              f"(parallel), {ns_many_serial:.2f} ns/sample (one channel after another); "
              f"mean segment length {many_len:.1f}"]

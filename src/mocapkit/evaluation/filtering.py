@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -38,17 +39,17 @@ def synthetic_signal(n: int = 600, noise: float = 0.1, seed: int = 0, rate: floa
 def knot_f1(found: np.ndarray, true: np.ndarray, margin: int = 2) -> float:
     """F1 of knot positions: a found knot is a hit if it lies within ``margin`` samples of an unmatched
     true knot (each true knot matched at most once)."""
-    found = list(found)
+    found_list = list(found)
     used = set()
     tp = 0
-    for f in found:
+    for f in found_list:
         cands = [k for k in range(len(true)) if k not in used and abs(int(true[k]) - int(f)) <= margin]
         if cands:
             used.add(min(cands, key=lambda k: abs(int(true[k]) - int(f))))
             tp += 1
-    if not found or not len(true):
+    if not found_list or not len(true):
         return 0.0
-    p, r = tp / len(found), tp / len(true)
+    p, r = tp / len(found_list), tp / len(true)
     return 0.0 if tp == 0 else 2 * p * r / (p + r)
 
 
@@ -93,7 +94,8 @@ def moving_markers(markers, min_valid: float = 0.5, ratio: float = 100.0) -> tup
     """
     from mocapkit.filters.penalty import noise_sigma
 
-    moving, static = [], []
+    moving: list[str] = []
+    static: list[str] = []
     for j, lab in enumerate(markers.labels):
         P = markers.positions[:, j, :]
         ok = np.isfinite(P).all(axis=1)
@@ -117,7 +119,8 @@ def evaluate_juggling(markers, balls, penalty: float | None = None, unit_m: floa
     with O = 2: per-flight acceleration of the fit (2·c2) and of the Butterworth-filtered signal
     (second derivative by central differences). ``penalty=None``: the automatic mode. ``controls``:
     static markers, filtered the same way in 3-D (their knot count should be 0)."""
-    out = {"balls": {}, "controls": {}, "penalty": penalty, "mode": "auto" if penalty is None else "fixed K"}
+    out: dict[str, Any] = {"balls": {}, "controls": {}, "penalty": penalty,
+                           "mode": "auto" if penalty is None else "fixed K"}
     all_acc = []
     for b in balls:
         z = markers.positions[:, markers.labels.index(b), axis]
@@ -135,7 +138,7 @@ def evaluate_juggling(markers, balls, penalty: float | None = None, unit_m: floa
         a, e = max(zip(runs[::2], runs[1::2], strict=True), key=lambda r_: r_[1] - r_[0])
         fs = markers.rate
         stds, means = [], []
-        fc = float("nan")
+        fc: float | np.ndarray = float("nan")
         if e - a >= 30:
             fc, _ = winter_residual_cutoff(z[a:e], fs)
             zb = np.asarray(butterworth_filtfilt(z[a:e], fs, float(fc))).reshape(-1)

@@ -18,7 +18,7 @@ def compare(signals: dict[str, Signal], angles=(0.5, 1.0, 2.0, 5.0), max_segment
     rows = []
     for deg in angles:
         tot = {"max_angle_deg": deg, "n_samples": sum(len(s) for s in signals.values())}
-        worst = {}
+        worst: dict[str, float] = {}
         for sig in signals.values():
             runs = {"optimal": optimal_max_angle(sig, deg, max_segment_length)}
             for m in ("anglesw", "fastsw", "cplr", "swing"):

@@ -175,7 +175,8 @@ def features_for(method: str, take: Take) -> np.ndarray:
     return take.limbs
 
 
-def make_segmenter(method: str, take: Take | None = None, others: list[Take] | None = None, n_cuts: int | None = None):
+def make_segmenter(method: str, take: Take | None = None, others: list[Take] | None = None,
+                   n_cuts: int | str | None = None):
     """A segmenter with the benchmark's settings (the library defaults, scaled to the take's rate by
     :func:`rate_scaled`; MLP trained on ``others``)."""
     from mocapkit.segment import BASELINES
@@ -357,7 +358,7 @@ def summarise(mocap_rows: list[dict], tssb_rows: list[dict]) -> dict:
     out["cmu"] = {k: {m: _mean([r.get(m) for r in v])
                       for m in ("frame_agreement", "ri_paper", "f1", "covering", "naming_accuracy", "seconds")}
                   for k, v in out["cmu"].items()}
-    by = {}
+    by: dict[str, list[dict]] = {}
     for r in tssb_rows:
         by.setdefault(r["method"], []).append(r)
     out["tssb"] = {m: {"covering": float(np.mean([r["covering"] for r in v])), "n_series": len(v),
