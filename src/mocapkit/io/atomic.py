@@ -367,7 +367,8 @@ def atomic_writer(path: str | os.PathLike[str], *, binary: bool = False,
     user = user if isinstance(user, str) else os.fsdecode(user)
     how, where, st = _resolve(user)
     if how == "fd":
-        n = int(where)  # type: ignore[arg-type]
+        assert isinstance(where, int)  # _resolve gives the descriptor's number for "fd"
+        n = where
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(Exception):
                 if stream is not None and stream.fileno() == n:

@@ -256,7 +256,7 @@ def _finite_float(tok: str) -> float:
     return v
 
 
-def _json(raw: bytes) -> dict:
+def _json(raw: bytes | bytearray) -> dict:
     try:
         text = raw.decode("utf-8-sig")
         doc = json.loads(text, parse_constant=_reject_constant, parse_float=_finite_float)
@@ -271,7 +271,7 @@ def _json(raw: bytes) -> dict:
     return doc
 
 
-def _glb(data: bytes) -> tuple[dict, bytes]:
+def _glb(data: bytes | bytearray) -> tuple[dict, bytes | bytearray]:
     if len(data) < 20:
         raise _Bad("a GLB file needs a 12-byte header and a JSON chunk")
     _, version, length = struct.unpack_from("<4sII", data, 0)
@@ -295,7 +295,7 @@ def _glb(data: bytes) -> tuple[dict, bytes]:
     return _json(chunks[0][1]), blob
 
 
-def _load(path: Path, data: bytes | None = None) -> tuple[dict, bytes]:
+def _load(path: Path, data: bytes | bytearray | None = None) -> tuple[dict, bytes | bytearray]:
     """The JSON document and buffer 0 of ``path`` (or of its bytes ``data``, already read)."""
     from mocapkit.io.text.input import read_input
 
@@ -453,7 +453,7 @@ _FLOAT_ONLY = frozenset({(_FLOAT, False)})
 _ROTATION_OUTPUT = frozenset({(_FLOAT, False), (5120, True), (5121, True), (5122, True), (5123, True)})
 
 
-def _accessor(doc: dict, blob: bytes, i, what: str, allowed=_FLOAT_ONLY) -> tuple[np.ndarray, float | None]:
+def _accessor(doc: dict, blob: bytes | bytearray, i, what: str, allowed=_FLOAT_ONLY) -> tuple[np.ndarray, float | None]:
     """Accessor ``i`` (SCALAR/VEC3/VEC4) as ``(count, n)`` float64 and the divisor of its normalized
     integers (``None`` for FLOAT). Its componentType and ``normalized`` flag must be one of ``allowed``
     (pairs); normalized integers are decoded as the spec says (``max(c/127, -1)``, ``c/255``,
@@ -524,7 +524,7 @@ def _sample(key_t: np.ndarray, key_v: np.ndarray, t: np.ndarray, rotation: bool)
     return key_v[k] + f[:, None] * (key_v[k + 1] - key_v[k])
 
 
-def read_gltf(path: str | Path, rate: float | None = None, data: bytes | None = None) -> Motion:
+def read_gltf(path: str | Path, rate: float | None = None, data: bytes | bytearray | None = None) -> Motion:
     """Decode the first animation of a glTF file to a full-rate skeletal :class:`Motion`.
 
     A file written by :func:`write_gltf` is decoded at its original frame times, in its original length
@@ -657,7 +657,7 @@ def _check_channels_hold_motion(chans, offsets: np.ndarray, rot: np.ndarray, tra
                                f"translation differs from its offset by up to {dev.max():g}")
 
 
-def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
+def _decode(doc: dict, blob: bytes | bytearray, src: str, rate: float | None) -> Motion:
     nodes = _list(doc, "nodes")
     if not nodes:
         raise _Bad("no nodes: not a skeletal glTF file")

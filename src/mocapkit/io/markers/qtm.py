@@ -159,9 +159,9 @@ class _Parser:
             if len(line) > MAX_HEADER_LINE:
                 raise self.err(i, f"header line {key} is {len(line):,} characters long (more than "
                                   f"{MAX_HEADER_LINE:,}): not a QTM export")
-            values = [f.strip() for f in fields[1:]]
+            cells = [f.strip() for f in fields[1:]]
             if key == "EVENT":
-                vals = [v for v in values if v] if len(values) > 3 else values
+                vals = [v for v in cells if v] if len(cells) > 3 else cells
                 if len(vals) < 3:
                     raise self.err(i, f"EVENT needs a name, a frame and a time, got {len(vals)} values")
                 if not _INT_RE.match(vals[1]):
@@ -172,7 +172,7 @@ class _Parser:
             else:
                 if key in header:
                     raise self.err(i, f"header field {key} is repeated (first on line {header_lines[key] + 1})")
-                header[key] = values
+                header[key] = cells
                 header_lines[key] = i
             i += 1
         end_header = i
@@ -238,11 +238,11 @@ class _Parser:
 
         names = list(header["MARKER_NAMES"])
         if len(names) > n_markers:
-            extra = [v for v in names[n_markers:] if v]
-            if extra:
+            surplus = [v for v in names[n_markers:] if v]
+            if surplus:
                 raise self.err(header_lines["MARKER_NAMES"],
                                f"MARKER_NAMES has {len([v for v in names if v])} names but NO_OF_MARKERS is "
-                               f"{n_markers} (first extra name: {_short(extra[0])})")
+                               f"{n_markers} (first extra name: {_short(surplus[0])})")
             names = names[:n_markers]
         elif len(names) < n_markers:
             meta["marker_names_padded"] = n_markers - len(names)

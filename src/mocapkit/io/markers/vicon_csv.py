@@ -161,9 +161,10 @@ def _parse_block(b: _Block, src: str, cut_line: int | None = None, file_bytes: i
                                        f"{ln_c}, found {len(cells)}")
             cells = cells[:width]
         if line == cut_line:
-            verdict, j = final_line_verdict([c for _, c in rows[max(0, r - 20):r]], cells)
-            report_final_line(src, line, verdict, j, field[j] if j is not None and j < width else "the last value",
-                              cells[j] if j is not None else "", warnings)
+            verdict, col = final_line_verdict([c for _, c in rows[max(0, r - 20):r]], cells)
+            report_final_line(src, line, verdict, col,
+                              field[col] if col is not None and col < width else "the last value",
+                              cells[col] if col is not None else "", warnings)
         for j in range(width):
             c = cells[j] if j < len(cells) else ""
             if not c:

@@ -138,9 +138,9 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str | N
                    if i == last and not ends_with_newline else "")
             raise MocapFormatError(src, i + 2, f"expected {ncol} comma-separated values, found {len(cells)}{cut}")
         if i == last and not ends_with_newline:
-            verdict, j = final_line_verdict([r.split(",") for r in lines[max(1, i - 19):i + 1]], cells)
-            report_final_line(src, i + 2, verdict, j, fields[j] if j is not None else "the last value",
-                              cells[j] if j is not None else "", warnings)
+            verdict, col = final_line_verdict([r.split(",") for r in lines[max(1, i - 19):i + 1]], cells)
+            report_final_line(src, i + 2, verdict, col, fields[col] if col is not None else "the last value",
+                              cells[col] if col is not None else "", warnings)
         for j, c in enumerate(cells):
             values[i, j] = parse_number(c.strip(), src, i + 2, fields[j], missing=_MISSING)
     if values.shape[0] == 0:

@@ -151,13 +151,13 @@ def _short(text: str, limit: int = 60) -> str:
     return repr(text if len(text) <= limit else text[: limit - 3] + "...")
 
 
-def _read_bytes(path: str | Path) -> tuple[str, bytes]:
+def _read_bytes(path: str | Path) -> tuple[str, bytes | bytearray]:
     from mocapkit.io.text.input import read_input
 
     return str(Path(path)), read_input(path, "text file")
 
 
-def _decode(data: bytes) -> str:
+def _decode(data: bytes | bytearray) -> str:
     """Bytes to text; undecodable bytes become lone surrogates, reported only where they matter."""
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
