@@ -48,6 +48,7 @@ import math
 import re
 import struct
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pygltflib as g
@@ -233,7 +234,7 @@ def write_gltf(path: str | Path, comp, unit_m: float = 0.01, name: str = "mocapk
 # buffer, strides within the spec's 4..252, numbers finite and at most MAX_ABS, counts bounded by the
 # buffer (so a hostile file cannot make the reader allocate or loop more than its own size).
 
-_N_COMP = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}
+_N_COMP: dict[Any, int] = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}  # looked up with any JSON value
 _FLOAT = 5126
 _GLB_JSON, _GLB_BIN = 0x4E4F534A, 0x004E4942
 MAX_FILE_BYTES = 1 << 31  # a glTF file larger than 2 GiB is not a clip this reader decodes
@@ -279,7 +280,7 @@ def _glb(data: bytes | bytearray) -> tuple[dict, bytes | bytearray]:
         raise _Bad(f"GLB version {version} (only 2 is read)")
     if length > len(data):
         raise _Bad(f"the GLB header says {length} bytes but the file has {len(data)} (cut short?)")
-    chunks = []
+    chunks: list[tuple[int, bytes | bytearray]] = []
     off = 12
     while off + 8 <= length:
         clen, ctype = struct.unpack_from("<II", data, off)
@@ -337,7 +338,7 @@ def _data_uri(uri: str, size: int) -> bytes:
     return raw[:size]
 
 
-def buffer_file_path(gltf: str | Path, uri: str) -> Path | None:
+def buffer_file_path(gltf: str | Path, uri: object) -> Path | None:
     """The file a ``.gltf``'s buffer ``uri`` names, resolved as :func:`read_gltf` resolves it, or ``None``
     for a data URI or a URI the reader refuses (so never reads): what an output must not overwrite."""
     if not isinstance(uri, str) or uri.startswith("data:"):
@@ -440,7 +441,7 @@ def _vec(v, n: int, what: str, default) -> np.ndarray:
 
 
 # componentType -> (little-endian dtype, name, divisor of a normalized value, signed)
-_COMPONENTS = {
+_COMPONENTS: dict[Any, tuple[str, str, float | None, bool]] = {
     5120: ("<i1", "BYTE", 127.0, True),
     5121: ("<u1", "UNSIGNED_BYTE", 255.0, False),
     5122: ("<i2", "SHORT", 32767.0, True),

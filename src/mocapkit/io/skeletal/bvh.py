@@ -43,6 +43,7 @@ import re
 import warnings
 from itertools import pairwise
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -282,7 +283,7 @@ def _strict_rows(data: str, first: int, skel: Skeleton, path: str, frame0: int =
         if not _NUMERIC_LINE.match(s):
             c = next(i for i, t in enumerate(toks) if not _NUMERIC_LINE.match(t))
             raise MocapFormatError(path, lineno, f"{_field(skel, k + 1, c)}: {toks[c][:30]!r} is not a number")
-        nums = []
+        nums: list[str] = []
         for t in toks:
             found = NUMBER_RE.findall(t)
             if "".join(found) != t:
@@ -466,10 +467,10 @@ def motion_from_channels(skel: Skeleton, values: np.ndarray, frame_time: float, 
         with np.errstate(invalid="ignore"):  # cos/sin of ±inf give NaN quietly, as in scipy
             cos = np.cos(half)
             sin = np.sin(half, out=half)
-        p = [0.0, 0.0, 0.0, cos[..., 0]]
+        p: list[Any] = [0.0, 0.0, 0.0, cos[..., 0]]  # floats and (N,) arrays
         p[axis[order[0]]] = sin[..., 0]
         for i in range(1, len(order)):
-            e = [0.0, 0.0, 0.0, cos[..., i]]
+            e: list[Any] = [0.0, 0.0, 0.0, cos[..., i]]
             e[axis[order[i]]] = sin[..., i]
             cross = [p[1] * e[2] - p[2] * e[1], p[2] * e[0] - p[0] * e[2], p[0] * e[1] - p[1] * e[0]]
             r = [p[3] * e[k] + e[3] * p[k] + cross[k] for k in range(3)]
@@ -524,6 +525,7 @@ def channels_from_motion(motion: Motion) -> np.ndarray:
             if c in POSITION_CHANNELS:
                 cols.append(motion.translations[:, j, "XYZ".index(c[0])])
             else:
+                assert eul is not None  # a rotation channel gives the joint a rotation order
                 cols.append(eul[:, k])
                 k += 1
     if not cols:
