@@ -5,6 +5,7 @@ its decode (error per joint); a ``.mkp`` or points CSV after an IMU file is its 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -259,7 +260,8 @@ class _Builder:
         from mocapkit.io.loaders import load_markers
 
         mk = load_markers(path)
-        fitted, knots = None, []
+        fitted: np.ndarray | None = None
+        knots: list[dict[str, Any]] = []
         if filter_json is not None:
             fitted, knots = fitted_positions(mk, read_filter_json(filter_json), str(filter_json))
         self.panels.append(marker_panel(self.pid(), path, mk, fitted, knots))
