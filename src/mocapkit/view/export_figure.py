@@ -178,6 +178,7 @@ class SceneFigure:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
         canvas = self.fig.canvas
+        assert isinstance(canvas, FigureCanvasAgg)  # _frame_canvas attached an Agg canvas
         if self._background is None:
             hidden = [*self.moving, *self.redrawn]
             for a in hidden:
@@ -210,8 +211,10 @@ class SceneFigure:
         :meth:`frame` is checked against."""
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-        FigureCanvasAgg.draw(self.fig.canvas)
-        return np.asarray(self.fig.canvas.buffer_rgba()).copy()
+        canvas = self.fig.canvas
+        assert isinstance(canvas, FigureCanvasAgg)  # _frame_canvas attached an Agg canvas
+        FigureCanvasAgg.draw(canvas)
+        return np.asarray(canvas.buffer_rgba()).copy()
 
 
 # --- writing -------------------------------------------------------------------------------------

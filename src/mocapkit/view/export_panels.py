@@ -358,10 +358,10 @@ class SensorView:
             top = max(top, float(bound))
         words = [f"bound {float(bound):.3g}°" if bound is not None else None,
                  f"max {float(sensor['max_error_deg']):.3g}°" if sensor.get("max_error_deg") is not None else None]
-        words = [w for w in words if w]
+        said = [w for w in words if w]
         kf = _array(sensor, "keyframes", where, optional=True)
         kf = kf.ravel() if kf is not None else np.zeros(0)
-        ax2.set_title(f"{sensor.get('name', '')}: angle error" + (f" ({', '.join(words)})" if words else "")
+        ax2.set_title(f"{sensor.get('name', '')}: angle error" + (f" ({', '.join(said)})" if said else "")
                       + (f", {len(kf)} keyframes (purple ticks)" if len(kf) else ""), fontsize=fs * 0.7, pad=2)
         ax2.set_ylim(0, top * 1.15)
         # keyframes: short ticks hanging under the time axis (a fixed length in points, whatever the row's
@@ -413,17 +413,18 @@ class MarkerView:
         if fitted is not None and fitted.shape[0] != n:
             raise MocapFormatError("scene", None, f"{where}.fitted: {fitted.shape[0]} frames for {n} times")
         fitted = None if fitted is None else z_up(fitted, up)
-        knots, knot_times = [], []
+        knot_list: list[np.ndarray] = []
+        time_list: list[np.ndarray] = []
         for k, kn in enumerate(panel.get("knots") or []):
             w = f"{where}.knots[{k}]"
             pts = np.asarray(_field(kn, "positions", w), dtype=float).reshape(-1, 3)
             kt = np.asarray(_field(kn, "times", w), dtype=float).reshape(-1)
             if len(kt) != len(pts):
                 raise MocapFormatError("scene", None, f"{w}: {len(kt)} times for {len(pts)} positions")
-            knots.append(z_up(pts, up))
-            knot_times.append(kt)
-        knots = np.concatenate(knots) if knots else np.zeros((0, 3))
-        knot_times = np.concatenate(knot_times) if knot_times else np.zeros(0)
+            knot_list.append(z_up(pts, up))
+            time_list.append(kt)
+        knots = np.concatenate(knot_list) if knot_list else np.zeros((0, 3))
+        knot_times = np.concatenate(time_list) if time_list else np.zeros(0)
         order = np.argsort(knot_times, kind="stable")
         self.knot_pos, self.knot_times = knots[order], knot_times[order]
         lim = _limits(np.concatenate([self.pos.reshape(-1, 3), knots]), pad=0.02)  # a small margin
