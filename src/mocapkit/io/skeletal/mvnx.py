@@ -308,16 +308,19 @@ class _Reader:
 
     def _text_element(self, tag: str, text: str, line: int) -> None:
         if tag == "pos_b":
+            assert self.point is not None  # _wants_text collects it inside a <point> only
             v = self.numbers(text, f"<pos_b> of point {self.point['label']!r}", line)
             if v.size != 3:
                 self.fail(f"<pos_b> of point {self.point['label']!r}: expected 3 numbers, got {v.size}", line)
             self.point["pos"] = v
         elif tag in ("connector1", "connector2"):
+            assert self.joint is not None  # inside a <joint> only
             seg, sep, pt = text.strip().partition("/")
             if not sep or not seg or not pt:
                 self.fail(f"joint {self.joint['label']!r}: <{tag}> {text.strip()[:60]!r} is not 'Segment/point'", line)
             self.joint[tag] = (seg, pt, line)
         else:
+            assert self.frame is not None  # inside a <frame> only
             S = len(self.segments)
             k = 4 if tag == "orientation" else 3
             v = self.numbers(text, f"<{tag}>", line, k)
@@ -428,7 +431,7 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
     trans = np.empty((N, S, 3))
     gaps: dict[str, float] = {}
     animated: list[str] = []
-    channels = []
+    channels: list[tuple[str, ...]] = []
     offsets = np.zeros((S, 3))
     for k, s in enumerate(order):
         p = parent[s]
@@ -453,7 +456,7 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
             trans[:, k] = offset[s]
             channels.append(JOINT_CHANNELS)
     if animated:
-        worst = max(animated, key=gaps.get)
+        worst = max(animated, key=lambda s: gaps[s])
         warnings.append(
             f"segment lengths vary: {len(animated)} joint(s) move up to {gaps[worst] * 1000:.3g} mm ({worst}) "
             f"away from their connector points (tolerance {tol * 1000:g} mm); they get position channels so that "
@@ -511,14 +514,14 @@ def _times(r: _Reader, src: str, warnings: list[str]) -> tuple[np.ndarray, float
     rate = r.subject.get("_rate")
     has_t = all(t is not None for t in r.times_ms)
     t_file = np.array(r.times_ms, dtype=np.float64) / 1000.0 if has_t else None
-    if has_t and N > 1:
+    if t_file is not None and N > 1:
         bad = np.flatnonzero(np.diff(t_file) <= 0)
         if bad.size:
             n = int(bad[0]) + 1
             raise MocapFormatError(src, r.frame_lines[n], f"frame time {r.times_ms[n]:g} ms is not after the previous "
                                                          f"frame's {r.times_ms[n - 1]:g} ms")
     if rate is None:
-        if not has_t:
+        if t_file is None:
             raise MocapFormatError(src, r.subject_line, "no frameRate on <subject> and no time attribute on the frames")
         if N < 2:
             raise MocapFormatError(
@@ -535,9 +538,9 @@ def _times(r: _Reader, src: str, warnings: list[str]) -> tuple[np.ndarray, float
         k -= k[0]
     else:
         k = np.arange(N, dtype=np.float64)
-    t0 = t_file[0] if has_t else 0.0
+    t0 = t_file[0] if t_file is not None else 0.0
     ideal = t0 + k / rate
-    if has_t:
+    if t_file is not None:
         dev = float(np.abs(t_file - ideal).max())
         if dev > 0.0005 + 1e-9:  # whole milliseconds round by at most 0.5 ms
             warnings.append(f"frame times differ from frameRate {rate:g} Hz by up to {dev * 1000:.3g} ms; "
