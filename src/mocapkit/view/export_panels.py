@@ -5,6 +5,7 @@ moves them to timeline time ``t`` (``set_segments``, ``set_offsets`` + ``set_3d_
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -68,7 +69,7 @@ def z_up(p: np.ndarray, up: str) -> np.ndarray:
 
 def _limits(points: np.ndarray, pad: float = 0.06) -> np.ndarray | None:
     """``(3, 2)`` axis limits around the finite points (a little margin; a flat axis gets some depth)."""
-    p = points.reshape(-1, 3)
+    p: np.ndarray = points.reshape(-1, 3)
     p = p[np.all(np.isfinite(p), axis=1)]
     if len(p) == 0:
         return None
@@ -178,7 +179,7 @@ class SkeletonView:
             raise MocapFormatError("scene", None, f"{where}.parents: {len(parents)} parents for {J} joints")
         self.parents = parents
         self.follow_half = follow_half
-        self.centre = None  # the followed pose's centre now (follow only)
+        self.centre: np.ndarray | None = None  # the followed pose's centre now (follow only)
         self.bones = np.array([(j, p) for j, p in enumerate(parents) if p >= 0], dtype=np.int64).reshape(-1, 2)
         self.error = _array(panel, "error", where, (J,), optional=True)
         if self.error is not None and self.error.shape[0] != n:
@@ -245,6 +246,7 @@ class SkeletonView:
             if centre is not None:  # no joint drawn: the limits stay where they were
                 self.centre = centre
             h = self.follow_half
+            assert self.centre is not None  # set in __init__ whenever follow_half is
             self.ax.set_xlim(self.centre[0] - h, self.centre[0] + h)
             self.ax.set_ylim(self.centre[1] - h, self.centre[1] + h)
             self.ax.set_zlim(self.centre[2] - h, self.centre[2] + h)
@@ -317,8 +319,10 @@ class SensorView:
                 if q.shape[0] != n:
                     raise MocapFormatError("scene", None, f"{where}.{key}: {q.shape[0]} samples for {n} times")
                 self.mats[key] = quat_matrices(q)
+        triad: dict[str, list[Any]]
         triad = {"colors": ["#d62728", "#2ca02c", "#1f77b4"], "linewidths": [max(fs / 5, 1.5)] * 3,
                  "linestyles": ["-"] * 3}
+        styles: dict[str, dict[str, list[Any]]]
         styles = {"original": {"colors": [ORIGINAL] * 12, "linewidths": [max(fs / 7, 1.2)] * 12,
                                "linestyles": ["-"] * 12},
                   "decoded": {"colors": [DECODED] * 12, "linewidths": [max(fs / 7, 1.2)] * 12,
