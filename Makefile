@@ -5,13 +5,13 @@ STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 DOCS_STAMP := $(VENV)/.docs-installed
 
-.PHONY: view-deps demo test docs bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
+.PHONY: view-deps demo test docs lint bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
 
 # the C encoders (c/mkpla) are compiled into the package by pip (setup.py: cffi); a changed C source rebuilds
 $(STAMP): pyproject.toml Makefile setup.py c/mkpla_cffi.py $(wildcard c/mkpla/*.c c/mkpla/*.h)
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test]'
+	$(BIN)/python -m pip install -q -e '.[test,dev]'
 	touch $(STAMP)
 
 # the Khronos glTF validator is used by the tests only (skipped with a reason where node is missing);
@@ -47,6 +47,11 @@ $(DOCS_STAMP): $(STAMP) pyproject.toml
 # fails the build
 docs: $(DOCS_STAMP)
 	$(BIN)/python -m sphinx -W --keep-going -b html docs build/docs
+
+# ruff (rules in pyproject.toml) over the code and mypy over src/mocapkit (strict on the public core)
+lint: $(STAMP)
+	$(BIN)/ruff check src tests benchmarks tools docs
+	$(BIN)/mypy
 
 bench: $(STAMP)
 	$(BIN)/mocapkit bench --json > docs/bench.json

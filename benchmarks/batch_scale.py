@@ -139,7 +139,7 @@ def main() -> None:
         n = len(pg_rows)
         same = len(pg_rows) == len(duck_rows) and all(
             x[:2] == y[:2] and x[3] == y[3] and abs(x[2] - y[2]) <= 1e-12 * max(1.0, abs(x[2]))
-            for x, y in zip(duck_rows, pg_rows))
+            for x, y in zip(duck_rows, pg_rows, strict=True))
         res["postgresql"] = {"bytes": pg_size(a.pg), "query_s": q, "query_rows": n,
                              "same_answer_as_duckdb": same}
         print(f"postgresql: {res['postgresql']['bytes'] / 1e6:.1f} MB, same query: {q * 1e3:.1f} ms ({n} rows, "

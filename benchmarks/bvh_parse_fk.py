@@ -93,7 +93,7 @@ def bvhio_world_positions_fast(path: str) -> np.ndarray:
     for k in range(n):
         root.loadPose(k, recursive=True)
         world = [identity] * len(joints)
-        for i, (j, p) in enumerate(zip(joints, parents)):
+        for i, (j, p) in enumerate(zip(joints, parents, strict=True)):
             parent_world = world[p] if p >= 0 else identity
             world[i] = parent_world * j.Space
             out[k, i] = parent_world * j.Position
@@ -137,7 +137,9 @@ def main() -> None:
         t_bvhio, P_bvhio = best_of(lambda: bvhio_world_positions(path), args.repeats)
         t_bvhio_fast, P_bvhio_fast = best_of(lambda: bvhio_world_positions_fast(path), args.repeats)
         t_bvh, vals_bvh = best_of(lambda: bvh_channel_values(path), max(args.repeats, 10))
-        rows.append((name, motion.n_frames, motion.skeleton.n_joints, t_parse, t_fk, t_total, t_bvhio, t_bvhio_fast, t_bvh))
+        rows.append(
+            (name, motion.n_frames, motion.skeleton.n_joints, t_parse, t_fk, t_total, t_bvhio, t_bvhio_fast, t_bvh)
+        )
 
         if P_bvhio.shape != P.shape:
             raise SystemExit(f"{name}: bvhio gives {P_bvhio.shape} positions, mocapkit {P.shape}")

@@ -55,9 +55,9 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
     if not DATA.is_dir():
         sys.exit(f"needs the shared recordings at {DATA}")
+    import mocapkit.clip.decoder as reader
     from mocapkit.clip import Clip, encode_clip
     from mocapkit.io.loaders import load_motion, unit_cm
-    import mocapkit.clip.decoder as reader
     from mocapkit.pla.skeletal import compress_motion
 
     def load(name, asf, u):
@@ -89,8 +89,11 @@ def main(argv=None) -> None:
             elif b == 1.0 and "1 cm" in acl:
                 row["acl_shell_cm"], row["acl_bytes"] = acl["1 cm"]
             rows.append(row)
-            versus = f"  ACL {row['acl_bytes']:,} B at shell {row['acl_shell_cm']} cm ({row['acl_bytes'] / r['bytes']:.2f}x)" \
-                if row["acl_bytes"] else ""
+            versus = (
+                f"  ACL {row['acl_bytes']:,} B at shell {row['acl_shell_cm']} cm ({row['acl_bytes'] / r['bytes']:.2f}x)"
+                if row["acl_bytes"]
+                else ""
+            )
             print(f"{name:34s} shell<={b:<7g} {r['bytes']:>9,} B  joint {r['max_joint_error_cm']:.4f}  "
                   f"shell {r['max_shell_error_cm']:.4f} cm  {wall:5.2f} s{versus}", flush=True)
 
@@ -128,8 +131,12 @@ def main(argv=None) -> None:
         res["pose_at_cold_us"] = best_of(cold, 1) / len(ts) * 1e6
         res["pose_at_playback_us"] = best_of(lambda: [clip.pose_at(t) for t in np.sort(ts)], 3) / len(ts) * 1e6
         decode[f"shell {b:g} cm"] = res
-        print(f"decode 86_01 at shell {b:g} cm ({len(data):,} B): "
-              + ", ".join(f"{k} {v / 1e6:.1f} M" if "per_s" in k else f"{k} {v:.0f}" for k, v in res.items() if k != "bytes"))
+        print(
+            f"decode 86_01 at shell {b:g} cm ({len(data):,} B): "
+            + ", ".join(
+                f"{k} {v / 1e6:.1f} M" if "per_s" in k else f"{k} {v:.0f}" for k, v in res.items() if k != "bytes"
+            )
+        )
     out = {"entropy": args.entropy, "rows": rows, "encode_speed": speed, "decode": decode}
     if args.json:
         args.json.write_text(json.dumps(out, indent=1) + "\n")

@@ -40,11 +40,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from mocapkit.io.formats.gltf import read_gltf, write_gltf
-from mocapkit.io.loaders import load_motion, unit_cm
-from mocapkit.jobs import compress_job
-from mocapkit.jobs.gltf_out import every_frame
-from mocapkit.skeleton import forward_kinematics
+from mocapkit.io.formats.gltf import read_gltf, write_gltf  # noqa: E402 (after the path insert)
+from mocapkit.io.loaders import load_motion, unit_cm  # noqa: E402
+from mocapkit.jobs import compress_job  # noqa: E402
+from mocapkit.jobs.gltf_out import every_frame  # noqa: E402
+from mocapkit.skeleton import forward_kinematics  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data"
 CLIPS = {

@@ -74,7 +74,9 @@ def generate(path: Path, rows: int, seed: int = 1) -> tuple[int, list[str]]:
             q = rng.normal(size=(m, 4))
             q /= np.linalg.norm(q, axis=1)[:, None]
             t = np.arange(s, s + m, dtype=np.int64) * 10_000 + 1_000_000
-            lines = [f"{a},{b:.9f},{c:.9f},{d:.9f},{e:.9f}" for a, b, c, d, e in zip(t.tolist(), *q.T.tolist())]
+            lines = [
+                f"{a},{b:.9f},{c:.9f},{d:.9f},{e:.9f}" for a, b, c, d, e in zip(t.tolist(), *q.T.tolist(), strict=True)
+            ]
             if s == 0:
                 first = lines[0]
             last = lines[-1]

@@ -72,7 +72,9 @@ def draw_segment(rng: np.random.Generator, p: dict, n: int, jitter: float = 0.1)
     return x + e
 
 
-def synthetic_take(rng: np.random.Generator, n_proc: int, per_proc: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def synthetic_take(
+    rng: np.random.Generator, n_proc: int, per_proc: int = 3
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(features, cuts, class per segment)``: ``per_proc`` segments of 300--900 frames of each of
     ``n_proc`` random processes, in random order."""
     procs = [random_process(rng) for _ in range(n_proc)]
@@ -198,23 +200,39 @@ def run(cmu_dir: Path, log=print) -> list[dict]:
                 t0 = time.perf_counter()
                 nm = name_actions(t.limbs, cuts[i], rule=rule, distance=dist, spread=spread)
                 dt = time.perf_counter() - t0
-                row = {"cuts": cuts_name, "distance": dist, "rule": rule if rule == "silhouette" else f"threshold/{spread}", "take": t.name, "n_segments": len(cuts[i]) + 1,
-                       "letters": " ".join(nm.letters[0]), "seconds": dt}
+                row = {
+                    "cuts": cuts_name,
+                    "distance": dist,
+                    "rule": rule if rule == "silhouette" else f"threshold/{spread}",
+                    "take": t.name,
+                    "n_segments": len(cuts[i]) + 1,
+                    "letters": " ".join(nm.letters[0]),
+                    "seconds": dt,
+                }
                 row.update(scores(nm, [t]))
                 rows.append(row)
             t0 = time.perf_counter()
             nm = name_actions([t.limbs for t in takes], cuts, rule=rule, distance=dist, spread=spread)
             dt = time.perf_counter() - t0
-            row = {"cuts": cuts_name, "distance": dist, "rule": rule if rule == "silhouette" else f"threshold/{spread}", "take": "all 4 together",
-                   "n_segments": sum(len(c) + 1 for c in cuts),
-                   "letters": " | ".join(" ".join(l) for l in nm.letters), "seconds": dt}
+            row = {
+                "cuts": cuts_name,
+                "distance": dist,
+                "rule": rule if rule == "silhouette" else f"threshold/{spread}",
+                "take": "all 4 together",
+                "n_segments": sum(len(c) + 1 for c in cuts),
+                "letters": " | ".join(" ".join(run) for run in nm.letters),
+                "seconds": dt,
+            }
             row.update(scores(nm, takes))
             rows.append(row)
             if log:
                 for r in rows[-5:]:
-                    log(f"{r['cuts']:20s} {r['distance']:4s} {r['rule']:17s} {r['take']:15s} acc {r['frame_accuracy']:.3f} "
+                    log(
+                        f"{r['cuts']:20s} {r['distance']:4s} {r['rule']:17s} {r['take']:15s} "
+                        f"acc {r['frame_accuracy']:.3f} "
                         f"pur {r['purity']:.3f} nmi {r['nmi']:.3f} k {r['n_classes']}/{r['n_ref_classes']} "
-                        f"{r['letters']}")
+                        f"{r['letters']}"
+                    )
     for step in REGULAR_STEPS:
         for t in takes:
             nm = name_actions(t.limbs, np.arange(step, t.n_frames, step))

@@ -43,9 +43,9 @@ def recordings():
 
 
 def measure(sig, deg, bits, packet_bytes):
-    from mocapkit.pla.packet_layout import Header, Sensor, mkp_bytes
-    from mocapkit.jobs.readers import read_mkp
     from mocapkit.jobs.packets import decode_at
+    from mocapkit.jobs.readers import read_mkp
+    from mocapkit.pla.packet_layout import Header, Sensor, mkp_bytes
     from mocapkit.pla.packets import packetise
     from mocapkit.quat import angular_distance
 

@@ -308,7 +308,7 @@ def read_output(path: Path, jobs: list[Job], signals: list[Signal]) -> tuple[dic
     w = np.fromfile(path, dtype="<u4")
     if len(w) < 9 or w[0] != MAGIC_OUT or w[1] != VERSION or w[2] != len(jobs):
         raise McuError(f"{path}: not a harness output for {len(jobs)} jobs")
-    sizes = dict(zip(("fastsw", "sw", "cplr", "swing", "anglesw", "encoder"), (int(x) for x in w[3:9])))
+    sizes = dict(zip(("fastsw", "sw", "cplr", "swing", "anglesw", "encoder"), (int(x) for x in w[3:9]), strict=True))
     pos = 9
     out = []
     for j in jobs:
@@ -522,7 +522,9 @@ def _traced(cmd: list[str], image: Image, push: str | tuple[str, ...], singleste
     full = cmd + (["-singlestep"] if singlestep else []) + ["-d", flags, "-dfilter", dfilter, "-D", f"/dev/fd/{w}"]
     proc = subprocess.Popen(full, stdout=subprocess.PIPE, stderr=subprocess.PIPE, pass_fds=(w,))
     os.close(w)
-    counters = [CallCounter(image.range(p)[0], ins, singlestep, returns_logged) for p, ins in zip(names, insides)]
+    counters = [
+        CallCounter(image.range(p)[0], ins, singlestep, returns_logged) for p, ins in zip(names, insides, strict=False)
+    ]
     chunks: queue.Queue = queue.Queue(maxsize=64)
 
     def reader() -> None:   # reads while the main thread parses, so QEMU never waits for the parser
@@ -577,7 +579,7 @@ def host_points(sig: Signal, job: Job):
 def differences(signals: list[Signal], jobs: list[Job], results: list[Result]) -> list[str]:
     """Jobs whose QEMU points differ from the host float32 build's (index, time or value bits)."""
     bad = []
-    for j, r in zip(jobs, results):
+    for j, r in zip(jobs, results, strict=False):
         h = host_points(signals[j.signal], j)
         what = None
         if len(h.indices) != len(r.index) or not np.array_equal(h.indices, r.index.astype(np.int64)):
@@ -745,7 +747,7 @@ def read_mkp_output(path: Path, jobs: list[MkpJob], signals: list[Signal]) -> tu
         body = raw[4 * pos: 4 * pos + nb]
         pos += (nb + 3) // 4
         edges = np.concatenate([[0], np.cumsum(lens)])
-        packets = [body[a:b] for a, b in zip(edges[:-1].tolist(), edges[1:].tolist())]
+        packets = [body[a:b] for a, b in zip(edges[:-1].tolist(), edges[1:].tolist(), strict=True)]
         n = int(w[pos])
         if n != len(signals[j.signal].t):
             raise McuError(f"{path}: job {j} reports {n} samples")
@@ -779,13 +781,15 @@ def run_mkp(elf: Path, signals: list[Signal], jobs: list[MkpJob], workdir: Path,
     if not count:
         res = subprocess.run(cmd, check=False, capture_output=True, text=True, timeout=timeout)
         if res.returncode != 0:
-            raise McuError(f"QEMU/packet harness failed ({res.returncode}): {(res.stderr + res.stdout).strip()[-2000:]}")
+            raise McuError(
+                f"QEMU/packet harness failed ({res.returncode}): {(res.stderr + res.stdout).strip()[-2000:]}"
+            )
     else:
         image = image or Image.load(elf, MKP_OBJECTS)
         counts = _traced(cmd, image, tuple(count), singlestep, timeout)
     sizes, results = read_mkp_output(out, jobs, signals)
     pushes = sum(len(signals[j.signal].t) for j in jobs)
-    for name, c in zip(count, counts):
+    for name, c in zip(count, counts, strict=False):
         if len(c) != pushes:
             raise McuError(f"counted {len(c)} calls of {name} for {pushes} pushes")
     return sizes, results, counts
@@ -802,13 +806,13 @@ def host_packets(sig: Signal, job: MkpJob):
 def mkp_differences(signals: list[Signal], jobs: list[MkpJob], results: list[MkpResult]) -> list[str]:
     """Jobs whose QEMU packets differ from the host float32 build's (bytes, or the sample that sent them)."""
     bad = []
-    for j, r in zip(jobs, results):
+    for j, r in zip(jobs, results, strict=False):
         h = host_packets(signals[j.signal], j)
         what = None
         if len(h.packets) != len(r.packets):
             what = f"{len(r.packets)} packets on the M4, {len(h.packets)} on the host"
         elif h.packets != r.packets:
-            k = next(i for i, (a, b) in enumerate(zip(h.packets, r.packets)) if a != b)
+            k = next(i for i, (a, b) in enumerate(zip(h.packets, r.packets, strict=True)) if a != b)
             what = f"packet {k} differs"
         elif not np.array_equal(h.sent_at, r.sent_at):
             what = "packets sent at other samples"
@@ -972,8 +976,11 @@ def measure(elf: Path, workdir: Path, data: Path | None = DATA, *, line_budget: 
         # shared recordings, cheapest jobs first while the budget lasts; estimated log lines (blocks
         # run) of a job: ~10 per push and, per buffered sample, ~3 (SW) or ~40 (anglesw)
         per_n = 40 if method == "anglesw" else 3 if method == "sw" else 0
-        cost = sorted((10 * len(sl) + per_n * int(sl.sum()), k) for k, (j, sl) in enumerate(zip(eq_jobs, seglens))
-                      if j.method == method)
+        cost = sorted(
+            (10 * len(sl) + per_n * int(sl.sum()), k)
+            for k, (j, sl) in enumerate(zip(eq_jobs, seglens, strict=False))
+            if j.method == method
+        )
         data_jobs, spent = [], 0
         for c, k in cost:
             if spent + c > line_budget:
@@ -1005,9 +1012,13 @@ def measure(elf: Path, workdir: Path, data: Path | None = DATA, *, line_budget: 
         sjobs += [Job(2, method, 0.0, DEFAULT_MAXLEN[method], "shaking, threshold 0"),
                   Job(2, method, th_small, DEFAULT_MAXLEN[method], "shaking")]
         if method not in ("sw", "anglesw"):   # a bounded segment length adds its test to every path
-            sjobs += [Job(2, method, 0.0, 50, "shaking, threshold 0, maxlen 50"),
-                      Job(2, method, th_small, 50, "shaking, maxlen 50"), Job(1, method, 1e-3, 50, "turning, maxlen 50"),
-                      Job(3, method, th_small, 0, "last axis shaken"), Job(3, method, th_small, 50, "last axis shaken, maxlen 50")]
+            sjobs += [
+                Job(2, method, 0.0, 50, "shaking, threshold 0, maxlen 50"),
+                Job(2, method, th_small, 50, "shaking, maxlen 50"),
+                Job(1, method, 1e-3, 50, "turning, maxlen 50"),
+                Job(3, method, th_small, 0, "last axis shaken"),
+                Job(3, method, th_small, 50, "last axis shaken, maxlen 50"),
+            ]
         sizes, s_seglen, s_counts = _count_jobs(elf, image, method, synth, sjobs,
                                                 workdir / f"trace-{method}-synth", log)
         all_counts = np.concatenate([data_counts, s_counts])
@@ -1098,7 +1109,8 @@ def table(rows: list[dict], compare: dict[str, dict] | None = None) -> str:
         mx = str(e["instructions_per_sample_max"])
         if "worst_case_at_L" in e:
             mx += f" (n = {e['worst_case_at_L']['n']})"
-        line = f"| {NAMES.get(e['method'], e['method'])} | {mean} | {e['instructions_per_sample_min']} | {mx} | {_per_call(e)} |"
+        line = (f"| {NAMES.get(e['method'], e['method'])} | {mean} | {e['instructions_per_sample_min']} | {mx} "
+                f"| {_per_call(e)} |")
         if other:
             c = compare[e["method"]]
             line += f" {c['instructions_per_sample_max']}" + (f" ({_per_call(c)})" if "fit" in c else "") + " |"

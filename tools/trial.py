@@ -30,7 +30,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from tests.trial import cases as C  # noqa: E402
-from tests.trial import oracle, runner, seeds as S  # noqa: E402
+from tests.trial import oracle, runner  # noqa: E402
+from tests.trial import seeds as S  # noqa: E402
 
 WEIGHTS = {"mutation": 40, "values": 15, "cut_number": 8, "deep": 0.6, "huge": 5, "paths": 12, "options": 10,
            "usage": 3, "kill": 4, "sql": 5, "manifest": 3}

@@ -37,6 +37,9 @@ class MocapFormatError(MocapError):
 class InvalidSignalError(MocapError):
     """Arrays handed to the library violate the signal model (shapes, NaN, time order...)."""
 
+    #: set by the C streaming encoder (:mod:`mocapkit.pla.native`) only: the points made before the refused sample
+    points: object
+
 
 class InvalidParameterError(MocapError):
     """A parameter is out of its domain (negative threshold, unknown method, ...)."""

@@ -32,8 +32,10 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from typing import Any, TypeVar
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mocapkit.errors import InvalidSignalError
 
@@ -60,7 +62,7 @@ def _label_problem(label: object) -> str | None:
 
 
 def make_unique_labels(raw: list[str] | tuple[str, ...], count: int | None = None,
-                       prefix: str = "unnamed") -> tuple[tuple[str, ...], list[dict]]:
+                       prefix: str = "unnamed") -> tuple[tuple[str, ...], list[dict[str, Any]]]:
     """Turn the labels of a file into ``count`` unique, valid labels, deterministically.
 
     Parameters
@@ -80,7 +82,7 @@ def make_unique_labels(raw: list[str] | tuple[str, ...], count: int | None = Non
         "label": str | None, "reason": "empty" | "missing" | "duplicate" | "cleaned" | "extra"}``.
     """
     n = len(raw) if count is None else int(count)
-    fixes: list[dict] = []
+    fixes: list[dict[str, Any]] = []
     cleaned: list[str] = []
     reasons: list[str | None] = []
     for i in range(n):
@@ -137,12 +139,15 @@ def make_unique_labels(raw: list[str] | tuple[str, ...], count: int | None = Non
 # --------------------------------------------------------------------------------------------------
 
 
-def _readonly(a: np.ndarray) -> np.ndarray:
+_A = TypeVar("_A", bound=np.ndarray[Any, Any])
+
+
+def _readonly(a: _A) -> _A:
     a.setflags(write=False)
     return a
 
 
-def _check_analog(analog: dict, n_frames: int) -> dict:
+def _check_analog(analog: dict[str, Any], n_frames: int) -> dict[str, Any]:
     if not isinstance(analog, dict):
         raise InvalidSignalError(f"analog must be a dict or None, got {type(analog).__name__}")
     missing = [k for k in ("labels", "rate", "values") if k not in analog]
@@ -202,14 +207,14 @@ class Markers:
     All arrays are stored read-only. Equality is identity (``eq=False``): compare arrays yourself.
     """
 
-    times: np.ndarray
-    positions: np.ndarray
+    times: NDArray[np.float64]
+    positions: NDArray[np.float64]
     labels: tuple[str, ...]
     rate: float
     units: str = "mm"
-    analog: dict | None = field(default=None, compare=False)
+    analog: dict[str, Any] | None = field(default=None, compare=False)
     source: str = ""
-    meta: dict = field(default_factory=dict, compare=False)
+    meta: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def __post_init__(self) -> None:
         where = f"markers from {self.source}" if self.source else "markers"
@@ -253,7 +258,12 @@ class Markers:
                 raise InvalidSignalError(f"{where}: label {i} ({lab!r}) {prob}")
         if len(set(labels)) != len(labels):
             seen: set[str] = set()
-            dup = next(lab for lab in labels if lab in seen or seen.add(lab))
+            dup = None
+            for lab in labels:
+                if lab in seen:
+                    dup = lab
+                    break
+                seen.add(lab)
             raise InvalidSignalError(f"{where}: label {dup!r} is repeated; labels must be unique")
 
         try:
@@ -298,9 +308,10 @@ class Markers:
         return float(self.times[-1] - self.times[0])
 
     @property
-    def missing(self) -> np.ndarray:
+    def missing(self) -> NDArray[np.bool_]:
         """``(N, M)`` bool: ``True`` where the marker is missing."""
-        return np.isnan(self.positions[:, :, 0])
+        gone: NDArray[np.bool_] = np.isnan(self.positions[:, :, 0])
+        return gone
 
     def index(self, label: str) -> int:
         """Column of ``label`` (``KeyError`` naming the known labels when absent)."""
@@ -310,6 +321,6 @@ class Markers:
             shown = ", ".join(self.labels[:10]) + (", ..." if len(self.labels) > 10 else "")
             raise KeyError(f"no marker {label!r}; markers: {shown}") from None
 
-    def marker(self, label: str) -> np.ndarray:
+    def marker(self, label: str) -> NDArray[np.float64]:
         """``(N, 3)`` read-only view of one marker's trajectory."""
         return self.positions[:, self.index(label), :]

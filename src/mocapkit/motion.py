@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mocapkit.errors import InvalidSignalError
 
@@ -35,12 +36,12 @@ class Signal:
         Where it came from (a path), for messages.
     """
 
-    times: np.ndarray
-    values: np.ndarray
+    times: NDArray[np.float64]
+    values: NDArray[np.float64]
     kind: Kind = "quaternion"
     name: str = ""
     source: str = ""
-    meta: dict = field(default_factory=dict, compare=False)
+    meta: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def __post_init__(self) -> None:
         t = np.ascontiguousarray(self.times, dtype=np.float64)

@@ -9,6 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
 
 COLORS = {"cplr": "tab:blue", "swing": "tab:orange", "sw": "tab:green", "fastsw": "tab:red", "anglesw": "tab:purple"}
 LABELS = {"cplr": "CPLR", "swing": "SF", "sw": "SW", "fastsw": "fastSW", "anglesw": "angle-SW"}
@@ -83,7 +84,7 @@ def plot_sweep_error(agg: list[dict], path: Path) -> Path:
     return _save(fig, path)
 
 
-def plot_ppa(t, y, result, path, title: str = "", butter=None) -> "Path":
+def plot_ppa(t, y, result, path, title: str = "", butter=None) -> Path:
     """Like Figure 3 of the seed report: a signal with its piecewise polynomial fit and knots, and the
     fit's first and second time derivatives (optionally a Butterworth-filtered comparison)."""
     t = np.asarray(t, dtype=np.float64)
@@ -178,14 +179,18 @@ def plot_arma_diagnostics(windows, names, out_png, title: str = "", per_limb: in
     pvals = []
     for ws in checked:
         row = []
-        for series, resid, p, q in ws:
+        for _series, resid, p, q in ws:
             h = default_lags(resid.size) if lags is None else lags
             row.append(ljung_box(resid, h, p + q).pvalue if 1 <= h < resid.size and h > p + q else np.nan)
         pvals.append(np.array(row))
     shown = []
     for j, ws in enumerate(checked):
         n = len(ws)
-        ks = range(n) if per_limb is None or n <= per_limb else np.unique(np.linspace(0, n - 1, per_limb).round().astype(int))
+        ks = (
+            range(n)
+            if per_limb is None or n <= per_limb
+            else np.unique(np.linspace(0, n - 1, per_limb).round().astype(int))
+        )
         shown += [(j, int(k)) for k in ks]
     rows = len(shown)
     # fixed margins in inches (tight_layout over dozens of axes takes seconds)
@@ -194,6 +199,7 @@ def plot_arma_diagnostics(windows, names, out_png, title: str = "", per_limb: in
     fig = plt.figure(figsize=(11, height))
     top = fig.add_gridspec(1, 1, left=0.07, right=0.99, top=1 - 0.6 / height,
                            bottom=1 - (head - 0.95) / height).subplots()
+    assert isinstance(top, Axes)  # one row, one column: a single Axes
     gs = fig.add_gridspec(rows, 3, left=0.07, right=0.99, top=1 - (head + 0.2) / height, bottom=0.4 / height,
                           hspace=0.55, wspace=0.08)
     for j, name in enumerate(names):
@@ -207,7 +213,9 @@ def plot_arma_diagnostics(windows, names, out_png, title: str = "", per_limb: in
     top.set_xlabel("window start (sample)")
     top.legend(fontsize=7, ncol=min(4, max(1, len(names))), loc="best")
     top.grid(True, alpha=0.3)
-    top.set_title((title + "\n" if title else "") + f"residual whiteness per window (dashed: α = {alpha:g})", fontsize=9)
+    top.set_title(
+        (title + "\n" if title else "") + f"residual whiteness per window (dashed: α = {alpha:g})", fontsize=9
+    )
 
     def bars(ax, values, band):
         k = np.arange(1, values.size)
@@ -234,7 +242,7 @@ def plot_arma_diagnostics(windows, names, out_png, title: str = "", per_limb: in
         axes[2].set_title(f"Ljung–Box p = {pv:.3g}" if np.isfinite(pv) else "Ljung–Box: too few lags", fontsize=7,
                           loc="right")
         if r == 0:
-            for ax, what in zip(axes, ("ACF of the series", "PACF of the series", "ACF of the residuals")):
+            for ax, what in zip(axes, ("ACF of the series", "PACF of the series", "ACF of the residuals"), strict=True):
                 ax.text(0.5, 1.4, what, transform=ax.transAxes, ha="center", fontsize=9, weight="bold")
         for ax in axes[1:]:
             ax.tick_params(labelleft=False)

@@ -12,17 +12,19 @@ import math
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 
-def normalize(q: np.ndarray) -> np.ndarray:
+def normalize(q: NDArray[np.float64]) -> NDArray[np.float64]:
     """Return ``q / |q|`` along the last axis (a new array)."""
     q = np.asarray(q, dtype=np.float64)
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+    out: NDArray[np.float64] = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return out
 
 
 @numba.njit(cache=True)
-def _hemisphere_signs(q: np.ndarray) -> np.ndarray:
+def _hemisphere_signs(q: NDArray[np.float64]) -> NDArray[np.float64]:
     n = q.shape[0]
     s = np.ones(n)
     for i in range(1, n):
@@ -33,12 +35,13 @@ def _hemisphere_signs(q: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def dot4(a, b) -> float:
+def dot4(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
     """Dot product of two 4-vectors (shared by the streaming and batch code so both round alike)."""
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+    d: float = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+    return d
 
 
-def hemisphere_continuous(q: np.ndarray) -> np.ndarray:
+def hemisphere_continuous(q: NDArray[np.float64]) -> NDArray[np.float64]:
     """Flip signs so consecutive quaternions have a non-negative dot product.
 
     ``q`` and ``-q`` are the same rotation; PLA interpolates component-wise, so a sign jump between
@@ -52,7 +55,8 @@ def hemisphere_continuous(q: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True, inline="always")
-def _angle_between(a0, a1, a2, a3, b0, b1, b2, b3) -> float:
+def _angle_between(a0: float, a1: float, a2: float, a3: float, b0: float, b1: float, b2: float, b3: float
+                   ) -> float:
     """Rotation angle (radians) between two quaternions of any non-zero norm (Eq. 2, stable form)."""
     na = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2 + a3 * a3)
     nb = math.sqrt(b0 * b0 + b1 * b1 + b2 * b2 + b3 * b3)
@@ -82,7 +86,7 @@ def _angle_between(a0, a1, a2, a3, b0, b1, b2, b3) -> float:
     )
 
 
-def angular_distance(q0: np.ndarray, q1: np.ndarray, degrees: bool = False) -> np.ndarray:
+def angular_distance(q0: NDArray[np.float64], q1: NDArray[np.float64], degrees: bool = False) -> NDArray[np.float64]:
     """Angle of the shortest rotation between ``q0`` and ``q1`` (Eq. 2 of the fastSW paper).
 
     Eq. 2 is ``2·arccos(|<q0, q1>|)`` for unit quaternions. It is evaluated here in the equivalent,
@@ -96,12 +100,12 @@ def angular_distance(q0: np.ndarray, q1: np.ndarray, degrees: bool = False) -> n
     s = np.where(np.einsum("...i,...i->...", a, b) < 0.0, -1.0, 1.0)[..., None]
     d = np.linalg.norm(a - s * b, axis=-1)
     p = np.linalg.norm(a + s * b, axis=-1)
-    ang = 4.0 * np.arctan2(d, p)
+    ang: NDArray[np.float64] = 4.0 * np.arctan2(d, p)
     return np.degrees(ang) if degrees else ang
 
 
 @numba.njit(cache=True, inline="always")
-def _slerp_unit(a, b, f, out) -> None:
+def _slerp_unit(a: NDArray[np.float64], b: NDArray[np.float64], f: float, out: NDArray[np.float64]) -> None:
     """SLERP between unit quaternions ``a`` and ``b`` (shortest arc) at fraction ``f`` into ``out``."""
     c = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
     sg = 1.0
@@ -135,7 +139,7 @@ def _slerp_unit(a, b, f, out) -> None:
         out[k] /= nn
 
 
-def slerp(q0: np.ndarray, q1: np.ndarray, f: np.ndarray) -> np.ndarray:
+def slerp(q0: NDArray[np.float64], q1: NDArray[np.float64], f: NDArray[np.float64]) -> NDArray[np.float64]:
     """Batched spherical linear interpolation along the shortest arc.
 
     Parameters
@@ -167,7 +171,7 @@ def slerp(q0: np.ndarray, q1: np.ndarray, f: np.ndarray) -> np.ndarray:
     return np.where((om == 0.0)[..., None], a, out)  # equal ends: exactly that point
 
 
-def multiply(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+def multiply(q0: NDArray[np.float64], q1: NDArray[np.float64]) -> NDArray[np.float64]:
     """Hamilton product ``q0 ⊗ q1`` (scalar-first)."""
     a = np.asarray(q0, dtype=np.float64)
     b = np.asarray(q1, dtype=np.float64)
@@ -184,19 +188,19 @@ def multiply(q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
     )
 
 
-def to_scipy(q: np.ndarray) -> Rotation:
+def to_scipy(q: NDArray[np.float64]) -> Rotation:
     """Scalar-first quaternions to a scipy ``Rotation`` (which is scalar-last)."""
     q = np.asarray(q, dtype=np.float64)
     return Rotation.from_quat(np.concatenate([q[..., 1:], q[..., :1]], axis=-1))
 
 
-def from_scipy(r: Rotation) -> np.ndarray:
+def from_scipy(r: Rotation) -> NDArray[np.float64]:
     """A scipy ``Rotation`` to scalar-first unit quaternions."""
     q = r.as_quat()
     return np.concatenate([q[..., 3:], q[..., :3]], axis=-1)
 
 
-def from_euler(order: str, angles: np.ndarray, degrees: bool = True) -> np.ndarray:
+def from_euler(order: str, angles: NDArray[np.float64], degrees: bool = True) -> NDArray[np.float64]:
     """Euler angles to scalar-first quaternions.
 
     ``order`` follows scipy: upper case (``"ZXY"``) is intrinsic, lower case extrinsic.
@@ -204,6 +208,7 @@ def from_euler(order: str, angles: np.ndarray, degrees: bool = True) -> np.ndarr
     return from_scipy(Rotation.from_euler(order, angles, degrees=degrees))
 
 
-def to_euler(order: str, q: np.ndarray, degrees: bool = True) -> np.ndarray:
+def to_euler(order: str, q: NDArray[np.float64], degrees: bool = True) -> NDArray[np.float64]:
     """Scalar-first quaternions to Euler angles in ``order`` (scipy's convention)."""
-    return to_scipy(q).as_euler(order, degrees=degrees)
+    angles: NDArray[np.float64] = to_scipy(q).as_euler(order, degrees=degrees)
+    return angles

@@ -13,13 +13,14 @@ import math
 
 import numba
 import numpy as np
+from numpy.typing import NDArray
 
 from mocapkit.quat import hemisphere_continuous
 
 SMALL = 1e-12  # below this angle log_map uses its series limit
 
 
-def log_map(q: np.ndarray) -> np.ndarray:
+def log_map(q: NDArray[np.float64]) -> NDArray[np.float64]:
     """``(N, 4)`` scalar-first quaternions (any norm) -> ``(N, 3)`` rotation vectors, continuous in time:
     the quaternions are first made hemisphere-continuous, so angles run past π instead of jumping."""
     q = hemisphere_continuous(np.asarray(q, dtype=np.float64))
@@ -28,7 +29,8 @@ def log_map(q: np.ndarray) -> np.ndarray:
     s = np.linalg.norm(xyz, axis=-1)
     theta = 2.0 * np.arctan2(s, q[..., 0])
     f = np.where(s > SMALL, theta / np.maximum(s, SMALL), 2.0)
-    return xyz * f[..., None]
+    v: NDArray[np.float64] = xyz * f[..., None]
+    return v
 
 
 HALF_PI = math.pi / 2
@@ -41,7 +43,7 @@ C1, C2, C3, C4, C5, C6, C7, C8, C9, C10, C11 = _C
 
 
 @numba.njit(cache=True, nogil=True)
-def exp_into(x: float, y: float, z: float, out: np.ndarray) -> None:
+def exp_into(x: float, y: float, z: float, out: NDArray[np.float64]) -> None:
     """One rotation vector -> ``out[:4]`` (scalar-first); every exponential map of mocapkit is this
     function, so the encoder's check and every reader round alike. ``sin`` and ``cos`` of the half
     angle ``h`` are series (within 4e-16 of libm's, tested) for ``h ≤ π`` — the range of
@@ -55,8 +57,10 @@ def exp_into(x: float, y: float, z: float, out: np.ndarray) -> None:
     elif h <= math.pi:
         t = h - HALF_PI  # sin h = cos t, cos h = −sin t
         u = t * t
-        c = -t * (1.0 + u * (S1 + u * (S2 + u * (S3 + u * (S4 + u * (S5 + u * (S6 + u * (S7 + u * (S8 + u * (S9 + u * (S10 + u * S11)))))))))))
-        f = (1.0 + u * (C1 + u * (C2 + u * (C3 + u * (C4 + u * (C5 + u * (C6 + u * (C7 + u * (C8 + u * (C9 + u * (C10 + u * C11))))))))))) / theta
+        c = -t * (1.0 + u * (S1 + u * (S2 + u * (S3 + u * (S4 + u * (S5 + u * (S6 + u * (S7 + u * (S8 + u * (S9
+                  + u * (S10 + u * S11)))))))))))
+        f = (1.0 + u * (C1 + u * (C2 + u * (C3 + u * (C4 + u * (C5 + u * (C6 + u * (C7 + u * (C8 + u * (C9
+             + u * (C10 + u * C11))))))))))) / theta
     else:
         f = math.sin(h) / theta
         c = math.cos(h)
@@ -67,12 +71,12 @@ def exp_into(x: float, y: float, z: float, out: np.ndarray) -> None:
 
 
 @numba.njit(cache=True)
-def _exp_rows(v: np.ndarray, out: np.ndarray) -> None:
+def _exp_rows(v: NDArray[np.float64], out: NDArray[np.float64]) -> None:
     for i in range(v.shape[0]):
         exp_into(v[i, 0], v[i, 1], v[i, 2], out[i])
 
 
-def exp_map(v: np.ndarray) -> np.ndarray:
+def exp_map(v: NDArray[np.float64]) -> NDArray[np.float64]:
     """``(..., 3)`` rotation vectors -> ``(..., 4)`` unit scalar-first quaternions."""
     v = np.asarray(v, dtype=np.float64)
     flat = np.ascontiguousarray(v.reshape(-1, 3))

@@ -16,8 +16,10 @@ optionally, of the end sites).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, Literal, overload
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mocapkit.errors import InvalidSignalError
 
@@ -50,11 +52,12 @@ class Skeleton:
     """
 
     names: tuple[str, ...]
-    parents: np.ndarray
-    offsets: np.ndarray
+    parents: NDArray[np.int64]
+    offsets: NDArray[np.float64]
     channels: tuple[tuple[str, ...], ...]
     end_sites: tuple[tuple[int, tuple[float, float, float]], ...] = ()
-    meta: dict = field(default_factory=dict, compare=False)
+    meta: dict[str, Any] = field(default_factory=dict, compare=False)
+    _index: dict[str, int] = field(init=False, repr=False, compare=False)  # name -> joint, set in __post_init__
 
     def __post_init__(self) -> None:
         p = np.asarray(self.parents, dtype=np.int64)
@@ -91,7 +94,8 @@ class Skeleton:
 
     def children(self, j: int) -> list[int]:
         """Joints whose parent is ``j``, in index order."""
-        return np.flatnonzero(self.parents == j).tolist()
+        kids: list[int] = np.flatnonzero(self.parents == j).tolist()
+        return kids
 
     def children_lists(self) -> list[list[int]]:
         """``children_lists()[j]`` = :meth:`children` of ``j`` for every joint, in one pass."""
@@ -113,7 +117,7 @@ class Skeleton:
             stack.extend(reversed(kids[j]))
         return out
 
-    def depths(self) -> np.ndarray:
+    def depths(self) -> NDArray[np.int64]:
         """``(J,)`` number of ancestors of every joint (0 for a root), in one pass."""
         d = np.zeros(self.n_joints, dtype=np.int64)
         for j, p in enumerate(self.parents.tolist()):
@@ -153,12 +157,12 @@ class Motion:
     """
 
     skeleton: Skeleton
-    times: np.ndarray
-    rotations: np.ndarray
-    translations: np.ndarray
-    channel_values: np.ndarray | None = None
+    times: NDArray[np.float64]
+    rotations: NDArray[np.float64]
+    translations: NDArray[np.float64]
+    channel_values: NDArray[np.float64] | None = None
     source: str = ""
-    meta: dict = field(default_factory=dict, compare=False)
+    meta: dict[str, Any] = field(default_factory=dict, compare=False)
 
     def __post_init__(self) -> None:
         t = np.asarray(self.times, dtype=np.float64)
@@ -167,7 +171,9 @@ class Motion:
         J = self.skeleton.n_joints
         N = t.shape[0]
         if r.shape != (N, J, 4) or x.shape != (N, J, 3):
-            raise InvalidSignalError(f"motion arrays: times {t.shape}, rotations {r.shape}, translations {x.shape}; J={J}")
+            raise InvalidSignalError(
+                f"motion arrays: times {t.shape}, rotations {r.shape}, translations {x.shape}; J={J}"
+            )
         if not np.all(np.isfinite(t)):
             raise InvalidSignalError("motion times must be finite")
         if N > 1 and np.any(np.diff(t) <= 0):
@@ -178,7 +184,9 @@ class Motion:
                 raise InvalidSignalError(f"motion {what}: joint {self.skeleton.names[j]!r} frame {n} is not finite")
         if N and J and not np.all(np.abs(r).max(axis=-1) > 0):
             n, j = (int(v[0]) for v in np.nonzero(~(np.abs(r).max(axis=-1) > 0)))
-            raise InvalidSignalError(f"motion rotations: joint {self.skeleton.names[j]!r} frame {n} is a zero quaternion")
+            raise InvalidSignalError(
+                f"motion rotations: joint {self.skeleton.names[j]!r} frame {n} is a zero quaternion"
+            )
         object.__setattr__(self, "times", t)
         object.__setattr__(self, "rotations", r)
         object.__setattr__(self, "translations", x)
@@ -196,7 +204,7 @@ class Motion:
         return 1.0 / self.frame_time
 
 
-def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+def quat_to_matrix(q: NDArray[np.float64]) -> NDArray[np.float64]:
     """``(..., 4)`` scalar-first quaternions (normalised here) to ``(..., 3, 3)`` rotation matrices."""
     q = np.asarray(q, dtype=np.float64)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
@@ -217,7 +225,17 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     return m
 
 
-def forward_kinematics(motion: Motion, end_sites: bool = False):
+_Array = NDArray[np.float64]
+
+
+@overload
+def forward_kinematics(motion: Motion, end_sites: Literal[False] = ...) -> tuple[_Array, _Array]: ...
+@overload
+def forward_kinematics(motion: Motion, end_sites: Literal[True]) -> tuple[_Array, _Array, _Array]: ...
+@overload
+def forward_kinematics(motion: Motion, end_sites: bool) -> tuple[_Array, _Array] | tuple[_Array, _Array, _Array]: ...
+def forward_kinematics(motion: Motion, end_sites: bool = False
+                       ) -> tuple[_Array, _Array] | tuple[_Array, _Array, _Array]:
     """World positions ``(N, J, 3)`` and world rotation matrices ``(N, J, 3, 3)`` of every joint.
 
     ``p_j = p_parent + R_parent · t_j`` and ``R_j = R_parent · r_j`` with ``t_j``, ``r_j`` the local

@@ -21,6 +21,7 @@ import os
 import re
 from decimal import Decimal
 from pathlib import Path
+from typing import Any
 from urllib.parse import unquote, urlsplit, urlunsplit
 
 from mocapkit.catalog import schema
@@ -49,7 +50,7 @@ def redact(url: str) -> str:
     return _hide_in_text(url)
 
 
-def _clean(message: str, url: str) -> str:
+def _clean(message: str | BaseException, url: str) -> str:
     """An engine's error on one line, without the URL's password."""
     text = " ".join(part.strip() for part in str(message).splitlines() if part.strip())
     if not is_postgres(url):
@@ -198,10 +199,9 @@ class Catalog:
 
     def _insert(self, table: str, cols: tuple[str, ...], rows: list[tuple]) -> None:
         if self.engine == "postgresql":
-            with self._conn.cursor() as cur:
-                with cur.copy(f"COPY {table} ({', '.join(cols)}) FROM STDIN") as cp:
-                    for r in rows:
-                        cp.write_row(r)
+            with self._conn.cursor() as cur, cur.copy(f"COPY {table} ({', '.join(cols)}) FROM STDIN") as cp:
+                for r in rows:
+                    cp.write_row(r)
         else:
             self._register_arrow("_mocapkit_rows", schema.TABLES[table], rows)
             try:
@@ -248,7 +248,7 @@ class Catalog:
         with contextlib.suppress(Exception):
             self._conn.close()
 
-    def __enter__(self) -> "Catalog":
+    def __enter__(self) -> Catalog:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -329,7 +329,8 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
     ``create=False`` refuses a DuckDB file that does not exist yet (``catalog query`` on a typo'd path)
     instead of making an empty catalog. ``read_only=True`` (``catalog query``) opens it so that a statement
     cannot change it (DuckDB ``read_only`` with external access disabled and the configuration locked;
-    PostgreSQL ``default_transaction_read_only``): a guard against a slip, not a permission. Raises :class:`MocapError` naming the URL (password hidden).
+    PostgreSQL ``default_transaction_read_only``): a guard against a slip, not a permission. Raises :class:`MocapError`
+    naming the URL (password hidden).
     """
     if read_only:
         create = False
@@ -344,17 +345,17 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
             raise MocapError(f"{shown}: a PostgreSQL catalog needs psycopg: pip install "
                              "'mocapkit[postgres]'") from None
         try:
-            extra = {}
+            extra: dict[str, Any] = {}
             if read_only:  # added to the URL's own options (a search_path, say)
                 from psycopg.conninfo import conninfo_to_dict
 
                 given = conninfo_to_dict(url).get("options") or ""
                 extra["options"] = f"{given} -c default_transaction_read_only=on".strip()
-            conn = psycopg.connect(url, connect_timeout=CONNECT_TIMEOUT_S, autocommit=True, **extra)
+            pg_conn = psycopg.connect(url, connect_timeout=CONNECT_TIMEOUT_S, autocommit=True, **extra)
         except (psycopg.Error, ValueError) as e:
             raise MocapError(f"{shown}: cannot open the catalog: {_clean(e, url)}") from None
         errors: tuple = (psycopg.Error,)
-        cat = Catalog(url, "postgresql", conn, errors)
+        cat = Catalog(url, "postgresql", pg_conn, errors)
     elif re.match(r"^[A-Za-z][A-Za-z0-9+.-]*://", url):
         raise MocapError(f"{shown}: unknown catalog URL scheme (use postgresql://... or a DuckDB file path)")
     else:
@@ -373,6 +374,7 @@ def connect(url: str | os.PathLike, create: bool = True, read_only: bool = False
             raise MocapError(f"{shown}: the folder {path.parent} does not exist")
         # never a progress bar on stdout (a long query would draw one into the CSV); read-only: no file but
         # this one (no COPY TO, ATTACH, read_csv, INSTALL/LOAD), and the settings locked
+        config: dict[str, str | bool | int | float | list[str]]
         config = ({"enable_external_access": False, "autoinstall_known_extensions": False,
                    "autoload_known_extensions": False} if read_only else {})
         try:
@@ -401,4 +403,4 @@ def utc_naive(text: str | None) -> dt.datetime | None:
     if text is None:
         return None
     t = dt.datetime.fromisoformat(str(text).replace("Z", "+00:00"))
-    return t.astimezone(dt.timezone.utc).replace(tzinfo=None) if t.tzinfo else t
+    return t.astimezone(dt.UTC).replace(tzinfo=None) if t.tzinfo else t

@@ -84,9 +84,9 @@ def reading_key(options: dict | str | None) -> tuple[str, str]:
 
 def recording_row(rec: dict, content_hash: str, reading: tuple[str, str], nbytes: int | None,
                   registered_at: dt.datetime) -> tuple:
-    return (rec["path"], content_hash, reading[1], reading[0], rec.get("format"), rec.get("kind"), _number(rec.get("rate_hz")),
-            rec.get("frames"), _number(rec.get("duration_s")), rec.get("subject"), rec.get("take"), nbytes,
-            registered_at)
+    return (rec["path"], content_hash, reading[1], reading[0], rec.get("format"), rec.get("kind"),
+            _number(rec.get("rate_hz")), rec.get("frames"), _number(rec.get("duration_s")), rec.get("subject"),
+            rec.get("take"), nbytes, registered_at)
 
 
 def channel_rows(rec: dict, content_hash: str, reading: tuple[str, str]) -> list[tuple]:
@@ -95,7 +95,7 @@ def channel_rows(rec: dict, content_hash: str, reading: tuple[str, str]) -> list
 
 
 def _now() -> dt.datetime:
-    return dt.datetime.now(dt.timezone.utc).replace(tzinfo=None)
+    return dt.datetime.now(dt.UTC).replace(tzinfo=None)
 
 
 def put_recordings(catalog: Catalog, items: list[tuple]) -> int:
@@ -163,6 +163,7 @@ def add_rows(catalog: Catalog, batch_rows: Iterable[dict]) -> dict:
     by_id: dict[str, dict] = {}
     for row in batch_rows:
         by_id[run_id(row)] = row
+    metrics: list[tuple[str, str | None, str, float]]  # (run, signal or None, name, value)
     runs, metrics, segments, pieces, outputs, recs = [], [], [], [], [], []
     for rid, row in by_id.items():
         record = json.loads(row["record_json"]) if row.get("record_json") else None

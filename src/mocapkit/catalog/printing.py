@@ -94,7 +94,7 @@ def write_json(columns: list[str], chunks: Iterable[list[tuple]], out: TextIO) -
     out.write("[")
     for rows in chunks:
         out.write("".join(("\n" if n == 0 and i == 0 else ",\n") + "{" +
-                          ",".join(k + json_text(v) for k, v in zip(names, r)) + "}"
+                          ",".join(k + json_text(v) for k, v in zip(names, r, strict=True)) + "}"
                           for i, r in enumerate(rows)))
         n += len(rows)
     out.write("\n]\n" if n else "]\n")

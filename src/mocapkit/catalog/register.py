@@ -52,9 +52,9 @@ def import_folder(catalog: Catalog, inputs: list[str | os.PathLike], asf: Path |
     """Register every recording found in ``inputs`` (files, folders walked recursively, globs: the rules of
     :func:`mocapkit.jobs.inputs.expand_inputs`). ``on_file(path, error_or_None)`` is called after each
     file (progress, messages). An argument naming nothing raises before any work."""
+    from mocapkit.catalog.ingest import put_recordings
     from mocapkit.errors import error_line
     from mocapkit.jobs.inputs import expand_inputs
-    from mocapkit.catalog.ingest import put_recordings
 
     found = expand_inputs(list(inputs))
     result = ImportResult(skipped=list(found.skipped))

@@ -41,15 +41,16 @@ from __future__ import annotations
 
 SCHEMA_VERSION = 2
 
-T, I, F, B, TS = "TEXT", "BIGINT", "DOUBLE PRECISION", "BOOLEAN", "TIMESTAMP"
+# one-letter column types keep the table below readable
+T, I, F, B, TS = "TEXT", "BIGINT", "DOUBLE PRECISION", "BOOLEAN", "TIMESTAMP"  # noqa: E741
 
 #: table -> ((column, type), ...) in insert order
 TABLES: dict[str, tuple[tuple[str, str], ...]] = {
-    "recordings": (("path", T), ("content_hash", T), ("reading_hash", T), ("reading_json", T), ("format", T), ("kind", T), ("rate_hz", F),
-                   ("frames", I), ("duration_s", F), ("subject", T), ("take", T), ("bytes", I),
-                   ("registered_at", TS)),
-    "channels": (("path", T), ("content_hash", T), ("reading_hash", T), ("idx", I), ("name", T), ("component", T), ("type", T),
-                 ("tracked_point", T), ("units", T)),
+    "recordings": (("path", T), ("content_hash", T), ("reading_hash", T), ("reading_json", T), ("format", T),
+                   ("kind", T), ("rate_hz", F), ("frames", I), ("duration_s", F), ("subject", T), ("take", T),
+                   ("bytes", I), ("registered_at", TS)),
+    "channels": (("path", T), ("content_hash", T), ("reading_hash", T), ("idx", I), ("name", T), ("component", T),
+                 ("type", T), ("tracked_point", T), ("units", T)),
     "runs": (("run_id", T), ("job", T), ("method", T), ("path", T), ("content_hash", T), ("reading_hash", T),
              ("options_json", T),
              ("options_hash", T), ("mocapkit_version", T), ("started_at", TS), ("seconds", F), ("status", T),

@@ -87,11 +87,13 @@ def track_tolerances(skeleton: Skeleton, P: np.ndarray, rot: list[int], trans: l
                 w = np.linalg.norm(P[:, pts] - P[:, i:i + 1], axis=-1).max(axis=0) + d
                 counts = n[pts]
                 if below.size:
+                    assert ends is not None  # End Sites are measured with their positions only
                     w = np.concatenate([w, np.linalg.norm(ends[:, below] - P[:, i:i + 1], axis=-1).max(axis=0)])
                     counts = np.concatenate([counts, n_end[below]])
                 ok = w > 0  # a point on the joint itself (zero distance) is not moved by its rotation
                 rt[i] = float((bound / (root3 * counts[ok] * w[ok])).min()) if ok.any() else math.inf
             else:
+                assert reach is not None  # computed whenever the exact search is too large
                 most = max(int(n[pts].max(initial=0)), int(n_end[below].max(initial=0)))
                 rt[i] = bound / (root3 * most * (reach[i] + d)) if reach[i] + d > 0 else math.inf
     return rt, tt

@@ -81,11 +81,15 @@ def parse_header(pre: bytes, read_header, file_size: int, where: str) -> tuple[d
     if magic != MAGIC:
         raise MocapFormatError(where, None, f"not a mocapkit clip (magic {magic!r}, expected {MAGIC!r})")
     if version != VERSION:
-        raise MocapFormatError(where, None, f"clip format version {version} is not supported (this mocapkit reads {VERSION})")
+        raise MocapFormatError(
+            where, None, f"clip format version {version} is not supported (this mocapkit reads {VERSION})"
+        )
     if flags != 0:
         raise MocapFormatError(where, None, f"unknown flags {flags:#06x}")
     if PREAMBLE.size + hlen + 4 > file_size:
-        raise MocapFormatError(where, None, f"truncated: the header alone needs {PREAMBLE.size + hlen + 4} bytes, the file has {file_size}")
+        raise MocapFormatError(
+            where, None, f"truncated: the header alone needs {PREAMBLE.size + hlen + 4} bytes, the file has {file_size}"
+        )
     hz = read_header(hlen)
     if len(hz) != hlen or zlib.crc32(hz) != hcrc:
         raise MocapFormatError(where, None, "the header's checksum does not match (corrupt file)")
@@ -115,7 +119,9 @@ def parse_header(pre: bytes, read_header, file_size: int, where: str) -> tuple[d
         frame += n
     if offset + 4 != file_size:
         what = "truncated" if offset + 4 > file_size else "has trailing bytes"
-        raise MocapFormatError(where, None, f"{what}: the header describes {offset + 4} bytes, the file has {file_size}")
+        raise MocapFormatError(
+            where, None, f"{what}: the header describes {offset + 4} bytes, the file has {file_size}"
+        )
     return head, entries
 
 
@@ -157,5 +163,9 @@ class ClipFile:
         e = self.blocks[i]
         b = self._data[e.offset:e.offset + e.stored]
         if zlib.crc32(b) != e.crc:
-            raise MocapFormatError(self.path, None, f"block {i} (frames {e.first}..{e.first + e.frames - 1}): checksum does not match (corrupt file)")
+            raise MocapFormatError(
+                self.path,
+                None,
+                f"block {i} (frames {e.first}..{e.first + e.frames - 1}): checksum does not match (corrupt file)",
+            )
         return b

@@ -49,7 +49,9 @@ class Clip:
         self.header = h
         missing, extra = HEADER_KEYS - h.keys(), h.keys() - HEADER_KEYS
         if missing or extra:
-            raise self._bad(f"header fields {sorted(missing)} missing" if missing else f"unknown header fields {sorted(extra)}")
+            raise self._bad(
+                f"header fields {sorted(missing)} missing" if missing else f"unknown header fields {sorted(extra)}"
+            )
         for key in ("generator", "source"):
             self._text(h[key], key)
         self.n_frames = self._int(h.get("frames"), "frames", 1)
@@ -57,7 +59,10 @@ class Clip:
             raise self._bad("the blocks do not cover the clip's frames")
         self.unit_cm = self._opt_float(h.get("unit_cm"), "unit_cm")
         if self.unit_cm is not None and not UNIT_CM_RANGE[0] <= self.unit_cm <= UNIT_CM_RANGE[1]:
-            raise self._bad(f"header field unit_cm: {self.unit_cm!r} cm is not between {UNIT_CM_RANGE[0]:g} and {UNIT_CM_RANGE[1]:g}")
+            raise self._bad(
+                f"header field unit_cm: {self.unit_cm!r} cm is not between {UNIT_CM_RANGE[0]:g} and "
+                f"{UNIT_CM_RANGE[1]:g}"
+            )
         self.skeleton = self._skeleton(h.get("skeleton"))
         if self.n_frames * self.skeleton.n_joints > MAX_JOINT_FRAMES:
             raise self._bad(f"header field frames: {self.n_frames} frames of {self.skeleton.n_joints} joints are more "
@@ -76,7 +81,9 @@ class Clip:
 
     def _int(self, v, what: str, lo: int = 0, hi: int | None = None) -> int:
         if type(v) is not int or v < lo or (hi is not None and v > hi):
-            raise self._bad(f"header field {what}: expected an integer in [{lo}, {hi if hi is not None else '∞'}], got {v!r}")
+            raise self._bad(
+                f"header field {what}: expected an integer in [{lo}, {hi if hi is not None else '∞'}], got {v!r}"
+            )
         return v
 
     def _float(self, v, what: str) -> float:
@@ -86,7 +93,9 @@ class Clip:
 
     def _text(self, v, what: str) -> str:
         if not isinstance(v, str) or len(v) > MAX_TEXT:
-            raise self._bad(f"header field {what}: expected a string of at most {MAX_TEXT} characters, got {str(v)[:60]!r}")
+            raise self._bad(
+                f"header field {what}: expected a string of at most {MAX_TEXT} characters, got {str(v)[:60]!r}"
+            )
         return v
 
     def _bound(self, b) -> None:
@@ -95,7 +104,9 @@ class Clip:
         if not isinstance(b, dict) or b.keys() != {"metric", "value", "shell_distance"}:
             raise self._bad(f"header field bound: expected {{metric, value, shell_distance}}, got {str(b)[:80]!r}")
         if b["metric"] not in BOUND_METRICS:
-            raise self._bad(f"header field bound.metric: {str(b['metric'])[:40]!r} is not one of {', '.join(BOUND_METRICS)}")
+            raise self._bad(
+                f"header field bound.metric: {str(b['metric'])[:40]!r} is not one of {', '.join(BOUND_METRICS)}"
+            )
         for key in ("value", "shell_distance"):
             if not self._float(b[key], f"bound.{key}") > 0:
                 raise self._bad(f"header field bound.{key} must be positive, got {b[key]!r}")
@@ -123,7 +134,7 @@ class Clip:
             raise self._bad("header has no skeleton")
         if s.keys() != SKELETON_KEYS:
             raise self._bad(f"header field skeleton: expected the fields {sorted(SKELETON_KEYS)}, got {sorted(s)[:10]}")
-        names, parents, offsets, channels = (s.get(k) for k in ("names", "parents", "offsets", "channels"))
+        names, parents, offsets, channels = (s[k] for k in ("names", "parents", "offsets", "channels"))
         if not isinstance(names, list) or not names or not all(isinstance(x, str) for x in names):
             raise self._bad("skeleton names must be a non-empty list of strings")
         for x in names:
@@ -138,14 +149,20 @@ class Clip:
         off = [self._floats(o, 3, f"offsets of {names[j]!r}") for j, o in enumerate(offsets)]
         ch = []
         for j, c in enumerate(channels):
-            if not isinstance(c, list) or not all(isinstance(x, str) and x in _CHANNELS for x in c) or len(set(c)) != len(c):
+            if (
+                not isinstance(c, list)
+                or not all(isinstance(x, str) and x in _CHANNELS for x in c)
+                or len(set(c)) != len(c)
+            ):
                 raise self._bad(f"skeleton channels of {names[j]!r} are not BVH channel names: {c!r}")
             ch.append(tuple(c))
-        ends = []
+        ends: list[tuple[int, tuple[float, float, float]]] = []
         for e in s["end_sites"] if isinstance(s["end_sites"], list) else [None]:
             if not (isinstance(e, list) and len(e) == 2):
                 raise self._bad(f"skeleton end site {str(e)[:60]!r} is not [joint, [x, y, z]]")
-            ends.append((self._int(e[0], "end site joint", 0, J - 1), tuple(self._floats(e[1], 3, "end site offset"))))
+            j = self._int(e[0], "end site joint", 0, J - 1)
+            ex, ey, ez = self._floats(e[1], 3, "end site offset")
+            ends.append((j, (ex, ey, ez)))
         if len({j for j, _ in ends}) != len(ends):
             raise self._bad("skeleton end_sites: a joint has two End Sites (BVH holds one)")
         meta = {}
@@ -210,7 +227,9 @@ class Clip:
             else:
                 b = self._float(t.get("base_step"), f"tracks[{i}].base_step")
                 if not MIN_BASE_STEP <= b:
-                    raise self._bad(f"header field tracks[{i}].base_step: {b!r} is not a step of at least {MIN_BASE_STEP:g}")
+                    raise self._bad(
+                        f"header field tracks[{i}].base_step: {b!r} is not a step of at least {MIN_BASE_STEP:g}"
+                    )
                 self.animated.append((j, kind))
                 bases.append(b)
         self.dims = np.full(len(self.animated), 3, dtype=np.int64)
@@ -247,8 +266,13 @@ class Clip:
             rot, trans = np.empty((N, J, 4)), np.empty((N, J, 3))
         else:
             rot, trans = out
-            if rot.shape != (N, J, 4) or trans.shape != (N, J, 3) or rot.dtype != np.float64 or trans.dtype != np.float64 \
-                    or not (rot.flags.c_contiguous and trans.flags.c_contiguous):
+            if (
+                rot.shape != (N, J, 4)
+                or trans.shape != (N, J, 3)
+                or rot.dtype != np.float64
+                or trans.dtype != np.float64
+                or not (rot.flags.c_contiguous and trans.flags.c_contiguous)
+            ):
                 raise ValueError(f"out must be float64 C arrays of shapes {(N, J, 4)} and {(N, J, 3)}")
 
         def one(i: int) -> None:  # blocks are independent: decoded on every core (the kernels drop the GIL)
@@ -294,7 +318,10 @@ class Clip:
     def info(self) -> dict:
         """What the clip holds (header fields, counts, sizes); no block is decoded."""
         h = self.header
-        classes = {"rotation": {"default": 0, "constant": 0, "animated": 0}, "translation": {"default": 0, "constant": 0, "animated": 0}}
+        classes = {
+            "rotation": {"default": 0, "constant": 0, "animated": 0},
+            "translation": {"default": 0, "constant": 0, "animated": 0},
+        }
         listed = {(t["joint"], t["kind"]): t["class"] for t in h["tracks"]}
         for j in range(self.skeleton.n_joints):
             for kind in ("rotation", "translation"):

@@ -26,18 +26,18 @@ import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from mocapkit import __version__
 from mocapkit.clip.budget import track_tolerances
-from mocapkit.clip.keys import choose_keys
-from mocapkit.clip.metric import (check_metric, end_errors_from_fk, end_site_arrays, errors_from_fk,
-                                  worst_point_errors)
-from mocapkit.errors import BoundViolationError, InvalidParameterError
-from mocapkit.clip.container import mkc_bytes
 from mocapkit.clip.codec import ENTROPY, entropy_encode, pack_block, steps_table, unpack_block
+from mocapkit.clip.container import mkc_bytes
 from mocapkit.clip.decoder import Clip
+from mocapkit.clip.keys import choose_keys
+from mocapkit.clip.metric import check_metric, end_errors_from_fk, end_site_arrays, errors_from_fk, worst_point_errors
+from mocapkit.errors import BoundViolationError, InvalidParameterError
 from mocapkit.rotvec import exp_map, log_map
 from mocapkit.skeleton import Motion, forward_kinematics
 
@@ -127,13 +127,14 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
         t.tol = (rt if t.kind == "rotation" else tt)[t.joint]
         if not math.isfinite(t.tol):
             t.tol = free_rot
+        assert t.x is not None  # _tracks gives every animated track its values
         lo, hi = t.x.min(axis=0), t.x.max(axis=0)
         if np.all(hi - lo <= 2.0 * t.tol):  # one value fits the corridor: a constant track
             mid = 0.5 * (lo + hi)
             t.cls, t.value = "constant", (exp_map(mid) if t.kind == "rotation" else mid)
         t.base = 2.0 * t.tol * 2.0 ** (START_LEVELS / 2)
     anim = [t for t in anim if t.cls == "animated"]
-    if anim and max(float(np.abs(t.x).max()) / t.base for t in anim) >= 2.0**40:
+    if anim and max(float(np.abs(t.x).max()) / t.base for t in anim if t.x is not None) >= 2.0**40:
         raise InvalidParameterError(f"max position error {bound:g} is too small for the range of this motion's values")
     starts = list(range(0, N, block_frames))
     spans = [(a, min(a + block_frames, N)) for a in starts]
@@ -204,8 +205,10 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
             cols = sorted({c for k in bad.tolist() for c in movers(k, metric == "shell")}
                           | {c for k in end_joint[bad_end].tolist() for c in movers(k, True)})
             if not cols or r[b, cols].max() >= START_LEVELS + FLOOR_LEVELS:
-                raise BoundViolationError(f"frames {a}..{e - 1}: error {max(err.max(), err_end.max(initial=0)):.6g} > {bound:g} "
-                                          "even within the worst-case budget")
+                raise BoundViolationError(
+                    f"frames {a}..{e - 1}: error {max(err.max(), err_end.max(initial=0)):.6g} > {bound:g} "
+                    "even within the worst-case budget"
+                )
             r[b, cols] += 1
             encode_block(b, cols)
             again.append(b)
@@ -215,7 +218,7 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     payloads = [pack_block(e - a, [keys[b][c] for c in range(T)]) for b, (a, e) in enumerate(spans)]
     with ThreadPoolExecutor(max_workers=os.cpu_count() or 1) as pool:  # zstd and LZMA release the GIL
         coded = list(pool.map(lambda p: entropy_encode(p, entropy), payloads))
-    blocks = [(a, e - a, len(p), c) for (a, e), p, c in zip(spans, payloads, coded)]
+    blocks = [(a, e - a, len(p), c) for (a, e), p, c in zip(spans, payloads, coded, strict=True)]
     n_keys = sum(len(keys[b][c][2]) for b in range(B) for c in range(T))
     header = _header(motion, tracks, anim, unit_cm, source, n_keys)
     header["bound"] = {"metric": metric, "value": bound, "shell_distance": shell_distance}
@@ -231,7 +234,7 @@ def encode_clip(motion: Motion, bound: float, *, metric: str = "shell", shell_di
     if worst > bound:
         raise BoundViolationError(f"the written clip decodes to a {metric} error of {worst:.6g} > {bound:g}")
     k = unit_cm if unit_cm is not None else float("nan")
-    report = {
+    report: dict[str, Any] = {
         "format": "mkc", "bytes": len(data), "error_metric": metric, "bound": bound,
         "shell_distance": shell_distance, "unit_cm": unit_cm,
         "max_joint_error": float(je.max()), "mean_joint_error": float(je.mean()),
@@ -258,7 +261,10 @@ def _header(motion: Motion, tracks: list[_Track], anim: list[_Track], unit_cm, s
     table = []
     for tr in tracks:  # animated tracks in the order of the block payloads
         if tr.cls == "constant":
-            table.append({"joint": tr.joint, "kind": tr.kind, "class": "constant", "value": [float(v) for v in tr.value]})
+            assert tr.value is not None  # a constant track holds its value
+            table.append(
+                {"joint": tr.joint, "kind": tr.kind, "class": "constant", "value": [float(v) for v in tr.value]}
+            )
         elif tr.cls == "animated":
             table.append({"joint": tr.joint, "kind": tr.kind, "class": "animated", "base_step": tr.base})
     assert [x for x in tracks if x.cls == "animated"] == anim

@@ -127,7 +127,12 @@ def worst_point_errors(parents, rot, trans, P0, R0, shell_distance, shell, end_j
                         R[j, a, b] = L[a, b]
             else:
                 for a in range(3):
-                    P[j, a] = P[p, a] + R[p, a, 0] * trans[f, j, 0] + R[p, a, 1] * trans[f, j, 1] + R[p, a, 2] * trans[f, j, 2]
+                    P[j, a] = (
+                        P[p, a]
+                        + R[p, a, 0] * trans[f, j, 0]
+                        + R[p, a, 1] * trans[f, j, 1]
+                        + R[p, a, 2] * trans[f, j, 2]
+                    )
                     for b in range(3):
                         R[j, a, b] = R[p, a, 0] * L[0, b] + R[p, a, 1] * L[1, b] + R[p, a, 2] * L[2, b]
             dx = P[j, 0] - P0[f, j, 0]
@@ -148,7 +153,13 @@ def worst_point_errors(parents, rot, trans, P0, R0, shell_distance, shell, end_j
             j = end_joint[k]
             e = 0.0
             for a in range(3):
-                d = P[j, a] + R[j, a, 0] * end_off[k, 0] + R[j, a, 1] * end_off[k, 1] + R[j, a, 2] * end_off[k, 2] - E0[f, k, a]
+                d = (
+                    P[j, a]
+                    + R[j, a, 0] * end_off[k, 0]
+                    + R[j, a, 1] * end_off[k, 1]
+                    + R[j, a, 2] * end_off[k, 2]
+                    - E0[f, k, a]
+                )
                 e += d * d
             e = math.sqrt(e)
             if e > out_end[k]:

@@ -3,13 +3,15 @@
 Data: smooth synthetic orientation streams at 100 Hz (a random walk of the rotation vector, low-pass
 filtered: joint-like motion with no static stretches), so that the sizes asked for (31 channels ×
 100k frames) exist without a skeleton reader. Thresholds are found per method to hit mean segment
-lengths 2..500 (maximum segment length 1000, as in the paper). All ratios are taken within one run (the machine is shared and noisy); each timing
-is the best of several repeats.
+lengths 2..500 (maximum segment length 1000, as in the paper). All ratios are taken within one run (the machine is
+shared and noisy); each timing is the best of several repeats.
 """
 
 from __future__ import annotations
 
 import time
+from functools import partial
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -21,6 +23,9 @@ from mocapkit.pla import fastsw as fastsw_mod
 from mocapkit.pla.base import prepared_values
 from mocapkit.pla.tune import threshold_for_icr
 from mocapkit.quat import from_scipy
+
+if TYPE_CHECKING:
+    from rich.console import RenderableType
 
 METHODS = ("fastsw", "sw", "cplr", "swing", "anglesw")
 TARGET_LENGTHS = (2, 5, 10, 20, 50, 100, 200, 500)
@@ -67,7 +72,7 @@ def _stream_ns(sig: Signal, method: str, th: float, n: int, mode: str = "stream"
     ts = sig.times[:n].tolist()
     xs = sig.values[:n].tolist()
     t0 = time.perf_counter_ns()
-    for t, x in zip(ts, xs):
+    for t, x in zip(ts, xs, strict=True):
         enc.push(t, x)
     enc.flush()
     return (time.perf_counter_ns() - t0) / n
@@ -83,7 +88,7 @@ def run_bench(channels: int = 31, frames: int = 100_000, quick: bool = False, pr
     sig = Signal(t, q[0], name="synthetic")
     X = prepared_values(sig)
     records = []
-    pairs: dict[tuple[str, int], dict] = {}
+    pairs: dict[tuple[str, int, str], dict] = {}
     for method in METHODS:
         # anglesw does O(segment) work per sample: a shorter signal keeps its bisection affordable
         s_m = sig if method != "anglesw" else Signal(sig.times[: n1 // 4], sig.values[: n1 // 4])
@@ -95,7 +100,7 @@ def run_bench(channels: int = 31, frames: int = 100_000, quick: bool = False, pr
             comp = threshold_for_icr(s_m, method, 1.0 / L, MAX_SEGMENT_LENGTH)
             th = comp.threshold
             msl = comp.mean_segment_length
-            ns_b = _best_ns(lambda: compress(s_m, method, th, MAX_SEGMENT_LENGTH, _prepared=X_m), len(s_m))
+            ns_b = _best_ns(partial(compress, s_m, method, th, MAX_SEGMENT_LENGTH, _prepared=X_m), len(s_m))
             n_stream = min(len(s_m), 5000 if not quick else 1000)
             timed = [("batch", ns_b)] + [(mode, min(_stream_ns(s_m, method, th, n_stream, mode) for _ in range(2)))
                                          for mode in STREAM_MODES]
@@ -132,15 +137,20 @@ def run_bench(channels: int = 31, frames: int = 100_000, quick: bool = False, pr
         for mode in ("batch", *STREAM_MODES):
             tab.add_row(method, mode, *[f"{pairs[(method, L, mode)]['ns_per_sample']:.0f}"
                                         if (method, L, mode) in pairs else "–" for L in TARGET_LENGTHS])
-        gain = {L: pairs[(method, L, "stream-numba")]["ns_per_sample"] / pairs[(method, L, "stream-batch")]["ns_per_sample"]
-                for L in TARGET_LENGTHS if (method, L, "stream-batch") in pairs}
-        tab.add_row(method, "numba push / C push_many", *[f"{gain[L]:.0f}×" if L in gain else "–" for L in TARGET_LENGTHS])
+        gain = {
+            L: pairs[(method, L, "stream-numba")]["ns_per_sample"] / pairs[(method, L, "stream-batch")]["ns_per_sample"]
+            for L in TARGET_LENGTHS
+            if (method, L, "stream-batch") in pairs
+        }
+        tab.add_row(
+            method, "numba push / C push_many", *[f"{gain[L]:.0f}×" if L in gain else "–" for L in TARGET_LENGTHS]
+        )
         records.append({"method": method, "mode": "stream-numba/stream-batch", "ratio_by_target_segment_length": gain})
     ratio = {L: pairs[("sw", L, "batch")]["ns_per_sample"] / pairs[("fastsw", L, "batch")]["ns_per_sample"]
              for L in TARGET_LENGTHS if ("sw", L, "batch") in pairs}
     tab.add_row("SW/fastSW", "batch", *[f"{ratio[L]:.1f}×" if L in ratio else "–" for L in TARGET_LENGTHS])
     records.append({"method": "sw/fastsw", "mode": "batch", "ratio_by_target_segment_length": ratio})
-    lines = [tab,
+    lines: list[RenderableType] = [tab,
              f"fastSW batch, {channels} channels × {frames} frames in one call: {ns_many:.2f} ns/sample "
              f"(parallel), {ns_many_serial:.2f} ns/sample (one channel after another); "
              f"mean segment length {many_len:.1f}"]

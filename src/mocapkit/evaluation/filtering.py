@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -38,17 +39,17 @@ def synthetic_signal(n: int = 600, noise: float = 0.1, seed: int = 0, rate: floa
 def knot_f1(found: np.ndarray, true: np.ndarray, margin: int = 2) -> float:
     """F1 of knot positions: a found knot is a hit if it lies within ``margin`` samples of an unmatched
     true knot (each true knot matched at most once)."""
-    found = list(found)
+    found_list = list(found)
     used = set()
     tp = 0
-    for f in found:
+    for f in found_list:
         cands = [k for k in range(len(true)) if k not in used and abs(int(true[k]) - int(f)) <= margin]
         if cands:
             used.add(min(cands, key=lambda k: abs(int(true[k]) - int(f))))
             tp += 1
-    if not found or not len(true):
+    if not found_list or not len(true):
         return 0.0
-    p, r = tp / len(found), tp / len(true)
+    p, r = tp / len(found_list), tp / len(true)
     return 0.0 if tp == 0 else 2 * p * r / (p + r)
 
 
@@ -93,7 +94,8 @@ def moving_markers(markers, min_valid: float = 0.5, ratio: float = 100.0) -> tup
     """
     from mocapkit.filters.penalty import noise_sigma
 
-    moving, static = [], []
+    moving: list[str] = []
+    static: list[str] = []
     for j, lab in enumerate(markers.labels):
         P = markers.positions[:, j, :]
         ok = np.isfinite(P).all(axis=1)
@@ -117,7 +119,8 @@ def evaluate_juggling(markers, balls, penalty: float | None = None, unit_m: floa
     with O = 2: per-flight acceleration of the fit (2·c2) and of the Butterworth-filtered signal
     (second derivative by central differences). ``penalty=None``: the automatic mode. ``controls``:
     static markers, filtered the same way in 3-D (their knot count should be 0)."""
-    out = {"balls": {}, "controls": {}, "penalty": penalty, "mode": "auto" if penalty is None else "fixed K"}
+    out: dict[str, Any] = {"balls": {}, "controls": {}, "penalty": penalty,
+                           "mode": "auto" if penalty is None else "fixed K"}
     all_acc = []
     for b in balls:
         z = markers.positions[:, markers.labels.index(b), axis]
@@ -132,10 +135,10 @@ def evaluate_juggling(markers, balls, penalty: float | None = None, unit_m: floa
         ok = ~np.isnan(z)
         # Butterworth on the longest NaN-free run
         runs = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(int), [0]])))
-        a, e = max(zip(runs[::2], runs[1::2]), key=lambda r_: r_[1] - r_[0])
+        a, e = max(zip(runs[::2], runs[1::2], strict=True), key=lambda r_: r_[1] - r_[0])
         fs = markers.rate
         stds, means = [], []
-        fc = float("nan")
+        fc: float | np.ndarray = float("nan")
         if e - a >= 30:
             fc, _ = winter_residual_cutoff(z[a:e], fs)
             zb = np.asarray(butterworth_filtfilt(z[a:e], fs, float(fc))).reshape(-1)
@@ -216,7 +219,9 @@ def figures(out: Path, markers=None, ball: str | None = None, penalty: float | N
     ax.plot(t, clean, "k", lw=1, label="clean")
     ax.plot(t, np.asarray(butterworth_filtfilt(y, fs, float(fc))).reshape(-1), color="tab:blue", lw=1,
             label=f"Butterworth filtfilt, Winter fc = {float(fc):.1f} Hz")
-    ax.plot(t, np.asarray(smoothing_spline(t, y)[0]).reshape(-1), color="tab:purple", lw=1, label="smoothing spline (GCV)")
+    ax.plot(
+        t, np.asarray(smoothing_spline(t, y)[0]).reshape(-1), color="tab:purple", lw=1, label="smoothing spline (GCV)"
+    )
     ax.plot(t, ex.evaluate(t)[:, 0], color="tab:red", lw=1.5, label=f"exact PPA, K = {ex.penalty:.3f}")
     ax.plot(t, it.evaluate(t)[:, 0], "--", color="tab:orange", lw=1, label="iterative PPA")
     for k in ex.parts[0].knots[1:-1]:
@@ -238,8 +243,15 @@ def figures(out: Path, markers=None, ball: str | None = None, penalty: float | N
         zb = np.asarray(butterworth_filtfilt(z[sel], markers.rate, float(fc))).reshape(-1)
         vb = np.gradient(zb, tt[sel])
         ab = np.gradient(vb, tt[sel])
-        paths.append(plot_ppa(tt[sel], z[sel], r, out / "fig3_juggling.png",
-                              title=f"juggled ball {ball}, Z, O = 2, "
-                                    f"{'automatic' if penalty is None else f'K = {penalty:g}'}; Butterworth fc = {float(fc):.1f} Hz",
-                              butter=(zb, vb, ab)))
+        paths.append(
+            plot_ppa(
+                tt[sel],
+                z[sel],
+                r,
+                out / "fig3_juggling.png",
+                title=f"juggled ball {ball}, Z, O = 2, "
+                f"{'automatic' if penalty is None else f'K = {penalty:g}'}; Butterworth fc = {float(fc):.1f} Hz",
+                butter=(zb, vb, ab),
+            )
+        )
     return paths

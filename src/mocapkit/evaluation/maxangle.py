@@ -18,8 +18,8 @@ def compare(signals: dict[str, Signal], angles=(0.5, 1.0, 2.0, 5.0), max_segment
     rows = []
     for deg in angles:
         tot = {"max_angle_deg": deg, "n_samples": sum(len(s) for s in signals.values())}
-        worst = {}
-        for name, sig in signals.items():
+        worst: dict[str, float] = {}
+        for sig in signals.values():
             runs = {"optimal": optimal_max_angle(sig, deg, max_segment_length)}
             for m in ("anglesw", "fastsw", "cplr", "swing"):
                 runs[m] = compress_to(sig, m, max_angle=deg, max_segment_length=max_segment_length)

@@ -81,10 +81,17 @@ def find_pairs(items, label_suffix: str = ".labels.txt") -> list[tuple[Path, Pat
             continue
         folder = Path(it)
         if not folder.is_dir():
-            raise InvalidParameterError(f"{it}: expected TAKE=LABELS or a folder of takes with TAKE.labels.txt beside them")
-        found = [(f, f.with_name(f.stem + label_suffix)) for f in sorted(folder.iterdir())
-                 if f.is_file() and not f.name.endswith(label_suffix) and f.suffix.lower() not in (".asf", ".txt", ".md")
-                 and f.with_name(f.stem + label_suffix).is_file()]
+            raise InvalidParameterError(
+                f"{it}: expected TAKE=LABELS or a folder of takes with TAKE.labels.txt beside them"
+            )
+        found = [
+            (f, f.with_name(f.stem + label_suffix))
+            for f in sorted(folder.iterdir())
+            if f.is_file()
+            and not f.name.endswith(label_suffix)
+            and f.suffix.lower() not in (".asf", ".txt", ".md")
+            and f.with_name(f.stem + label_suffix).is_file()
+        ]
         if not found:
             raise InvalidParameterError(f"{folder}: no take with a {label_suffix} file beside it")
         out += found
@@ -94,8 +101,8 @@ def find_pairs(items, label_suffix: str = ".labels.txt") -> list[tuple[Path, Pat
 def load_user_takes(pairs, asf: Path | None = None, rate: float | None = None, log=None) -> list[Take]:
     """Every take and its labels. All label files are read and checked against their take's frame
     count first (a bad file fails before any feature is computed); then the features."""
-    from mocapkit.io.skeletal.labels import read_reference
     from mocapkit.io.loaders import load_motion
+    from mocapkit.io.skeletal.labels import read_reference
     from mocapkit.segment.features import motion_features, pose_features
 
     motions = []
@@ -168,11 +175,12 @@ def features_for(method: str, take: Take) -> np.ndarray:
     return take.limbs
 
 
-def make_segmenter(method: str, take: Take | None = None, others: list[Take] | None = None, n_cuts: int | None = None):
+def make_segmenter(method: str, take: Take | None = None, others: list[Take] | None = None,
+                   n_cuts: int | str | None = None):
     """A segmenter with the benchmark's settings (the library defaults, scaled to the take's rate by
     :func:`rate_scaled`; MLP trained on ``others``)."""
-    from mocapkit.segment.arma import ARMASegmenter
     from mocapkit.segment import BASELINES
+    from mocapkit.segment.arma import ARMASegmenter
 
     kw = rate_scaled(method, take.ref.rate_hz) if take is not None else {}
     if method == "arma":
@@ -248,8 +256,11 @@ def run_mocap(cmu_dir, methods=MOCAP_METHODS, known_k: bool = False, log=None) -
             row.update(score(pred, take.ref, naming=name_segments(take.limbs, pred, take.ref.rate_hz)))
             rows.append(row)
             if log:
-                log(f"{take.name} {method}{MODE_SUFFIX[mode or 'unknown_k']}: frame agreement {row['frame_agreement']:.3f} RI (paper) {_f(row['ri_paper'])} F1 {row['f1']:.3f} "
-                    f"Cov {row['covering']:.3f} cuts {len(pred)}/{len(take.ref.cuts)} {dt:.2f} s")
+                log(
+                    f"{take.name} {method}{MODE_SUFFIX[mode or 'unknown_k']}: frame agreement "
+                    f"{row['frame_agreement']:.3f} RI (paper) {_f(row['ri_paper'])} F1 {row['f1']:.3f} "
+                    f"Cov {row['covering']:.3f} cuts {len(pred)}/{len(take.ref.cuts)} {dt:.2f} s"
+                )
     return rows
 
 
@@ -285,8 +296,8 @@ def tssb_segmenter(method: str, n: int, w: int):
     """The TSSB settings: ARMA without downsampling; the baselines' shortest segment 5 windows
     (``5·w``, ClaSP's own exclusion zone) instead of the 1 s of mocap; PELT runs on every
     ``ceil(n / 8000)``-th sample of long series (its cost grows with n² without pruning)."""
-    from mocapkit.segment.arma import ARMASegmenter
     from mocapkit.segment import BASELINES
+    from mocapkit.segment.arma import ARMASegmenter
 
     if method == "arma":
         return ARMASegmenter(downsample=1)
@@ -347,7 +358,7 @@ def summarise(mocap_rows: list[dict], tssb_rows: list[dict]) -> dict:
     out["cmu"] = {k: {m: _mean([r.get(m) for r in v])
                       for m in ("frame_agreement", "ri_paper", "f1", "covering", "naming_accuracy", "seconds")}
                   for k, v in out["cmu"].items()}
-    by = {}
+    by: dict[str, list[dict]] = {}
     for r in tssb_rows:
         by.setdefault(r["method"], []).append(r)
     out["tssb"] = {m: {"covering": float(np.mean([r["covering"] for r in v])), "n_series": len(v),

@@ -51,7 +51,7 @@ def stick_figure_png(motion: Motion, path: Path, sizes=(0.5, 0.25, 0.10, 0.05), 
     """Figure 5 of the fastSW paper, for a skeleton: frames every ``step_s`` seconds, one panel per
     method (columns) and shot; the original in light blue under reconstructions whose keyframes take
     50/25/10/5 % of the original size."""
-    from mocapkit.plot import plt, _save
+    from mocapkit.plot import _save, plt
 
     P0, _ = forward_kinematics(motion)
     sk = motion.skeleton
@@ -98,7 +98,7 @@ def plot_curves(rows: list[dict], path: Path) -> Path:
     fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.6 * nrow), squeeze=False)
     for ax in axes.flat[len(files):]:
         ax.set_visible(False)
-    for ax, f in zip(axes.flat, files):
+    for ax, f in zip(axes.flat, files, strict=False):
         for m in METHODS:
             rs = sorted((r for r in rows if r["file"] == f and r["method"] == m and r["mode"] == "target_icr"),
                         key=lambda r: float(r["icr"]))

@@ -51,7 +51,7 @@ def _time_stream(sig: Signal, method: str, th: float, maxlen: int) -> np.ndarray
     ns = np.empty(len(sig))
     clock = time.perf_counter_ns
     rows = sig.values.tolist()
-    for i, (t, x) in enumerate(zip(sig.times.tolist(), rows)):
+    for i, (t, x) in enumerate(zip(sig.times.tolist(), rows, strict=True)):
         t0 = clock()
         enc.push(t, x)
         ns[i] = clock() - t0
@@ -128,8 +128,9 @@ def aggregate(rows: list[dict]) -> list[dict]:
 
 
 def _write_csv(path: Path, rows: list[dict], fields: list[str]) -> None:
-    from mocapkit.io.atomic import atomic_write_text
     import io
+
+    from mocapkit.io.atomic import atomic_write_text
 
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=fields, extrasaction="ignore", lineterminator="\n")

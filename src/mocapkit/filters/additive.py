@@ -7,8 +7,8 @@ with PELT's pruning (Killick, Fearnhead and Eckley 2012): the SSR of least-squar
 superadditive, ``SSR[s, e') ≥ SSR[s, e) + SSR[e, e')``, so a start ``s`` with ``F(s) + SSR[s, e) > F(e)``
 can never again be optimal — once at least ``m`` valid samples follow ``e`` (``m``, the shortest chunk
 allowed, is ``O + 1`` by default; the automatic mode asks for ``O + 2``, see
-:mod:`mocapkit.filters.penalty`). Every candidate start keeps its own QR factorisation, updated by one Givens rotation per
-sample (as in :mod:`mocapkit.filters.chunks`); work is O(n·L·O²) with L the typical chunk length, O(n²)
+:mod:`mocapkit.filters.penalty`). Every candidate start keeps its own QR factorisation, updated by one Givens rotation
+per sample (as in :mod:`mocapkit.filters.chunks`); work is O(n·L·O²) with L the typical chunk length, O(n²)
 for a signal without any knot.
 
 Used by the automatic mode (:mod:`mocapkit.filters.penalty`): a penalty in SSR units is the same

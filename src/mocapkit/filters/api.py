@@ -63,7 +63,7 @@ def split_at_gaps(t: np.ndarray, Y: np.ndarray, max_gap: float) -> list[tuple[in
         return []
     parts = []
     start = idx[0]
-    for a, b in zip(idx[:-1], idx[1:]):
+    for a, b in zip(idx[:-1], idx[1:], strict=True):
         if t[b] - t[a] > max_gap:
             parts.append((int(start), int(a) + 1))
             start = b
@@ -118,7 +118,7 @@ def fit(t, y, order: int = 2, penalty: float | None = None, solver: str = "exact
         ch = choose_knot_cost([(t[a:b], Y[a:b]) for a, b in ranges], order)
         K = ch.penalty
         parts = [_shift(PiecewisePolynomial(s.knots, s.pieces, s.order, s.ssr, K), a)
-                 for s, (a, _) in zip(ch.solutions, ranges)]
+                 for s, (a, _) in zip(ch.solutions, ranges, strict=True)]
         return FilterResult(tuple(parts), K, order, "auto", None, tuple(unfitted), ch.knot_cost)
     K = float(penalty)
     parts = []

@@ -178,8 +178,8 @@ class PiecewisePolynomial:
 
 def build(t: np.ndarray, Y: np.ndarray, knots, order: int, penalty: float) -> PiecewisePolynomial:
     knots = np.asarray(sorted(set(int(k) for k in knots) | {0, len(t)}), dtype=np.int64)
-    pieces = tuple(fit_piece(t, Y, int(a), int(b), order) for a, b in zip(knots[:-1], knots[1:]))
-    ssr = sum(chunk_ssr(t, Y, int(a), int(b), order) for a, b in zip(knots[:-1], knots[1:]))
+    pieces = tuple(fit_piece(t, Y, int(a), int(b), order) for a, b in zip(knots[:-1], knots[1:], strict=True))
+    ssr = sum(chunk_ssr(t, Y, int(a), int(b), order) for a, b in zip(knots[:-1], knots[1:], strict=True))
     return PiecewisePolynomial(knots, pieces, order, float(ssr), float(penalty))
 
 

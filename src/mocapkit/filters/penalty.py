@@ -70,8 +70,8 @@ knots; the test suite checks white noise and AR(1) noise of ρ = 0.9 over 2,000 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from scipy.special import comb
@@ -204,11 +204,11 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
         top[k] = max(top.get(k, 0.0), la)
     # k = 0 is judged on the residual of the single polynomial: above S0 no knot can pay
     zero = solve(lam0)[2] if grid[0][1] == 0 else solve(2.0 * S0)[2]
-    sig = {0: _significance(S0, long_run_variance(parts, zero))}
+    signif = {0: _significance(S0, long_run_variance(parts, zero))}
     for k, la in top.items():
         if k > 0:
-            sig[k] = _significance(la, long_run_variance(parts, solve(la)[2]))
-    best = max(sig, key=lambda k: (sig[k], -k))
+            signif[k] = _significance(la, long_run_variance(parts, solve(la)[2]))
+    best = max(signif, key=lambda k: (signif[k], -k))
     # the exact range of the chosen count: hull slopes to its neighbours on the grid
     ks = sorted(top)
     if best == 0:
@@ -223,7 +223,7 @@ def choose_knot_cost(parts: Parts, order: int = 2, step: float = 2.0) -> KnotCos
     lam = math.sqrt(lo * hi)
     k, ssr, sols = solve(lam)
     path = tuple(sorted(((la, kk, s) for la, (kk, s, _) in cache.items()), reverse=True))
-    return KnotCostChoice(lam, k, (lo, hi), floor, sols, path, sig[best])
+    return KnotCostChoice(lam, k, (lo, hi), floor, sols, path, signif[best])
 
 
 def _best_split_ssr(t: np.ndarray, Y: np.ndarray, order: int) -> float:
@@ -240,7 +240,7 @@ def _best_split_ssr(t: np.ndarray, Y: np.ndarray, order: int) -> float:
 def _residual_dof(parts: Parts, sols: Sequence[PiecewisePolynomial]) -> int:
     """Residual degrees of freedom of a fit: valid samples minus coefficients, per piece and component."""
     dof = 0
-    for (_, Y), sol in zip(parts, sols):
+    for (_, Y), sol in zip(parts, sols, strict=True):
         ok = np.isfinite(Y).all(axis=1)
         dof += sum(max(int(ok[pc.i0:pc.i1].sum()) - pc.coeffs.shape[0], 0) for pc in sol.pieces) * Y.shape[1]
     return dof
@@ -263,7 +263,7 @@ def long_run_variance(parts: Parts, sols: Sequence[PiecewisePolynomial]) -> floa
     no residual (see :func:`_significance`)."""
     num = den = ssr = 0.0
     n = dof = 0
-    for (t, Y), sol in zip(parts, sols):
+    for (t, Y), sol in zip(parts, sols, strict=True):
         D = Y.shape[1]
         for pc in sol.pieces:
             yy = Y[pc.i0:pc.i1]

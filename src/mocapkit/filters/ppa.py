@@ -80,7 +80,7 @@ def fit_iterative(t, y, order: int = 2, penalty: float = 1.0, init_chunk: int | 
         if nvalid(knots[-1], k) >= p and nvalid(k, n) >= p:
             knots.append(k)
     knots.append(n)
-    ssr = [chunk_ssr(t, Y, a, b, order) for a, b in zip(knots[:-1], knots[1:])]
+    ssr = [chunk_ssr(t, Y, a, b, order) for a, b in zip(knots[:-1], knots[1:], strict=True)]
 
     def loss(total, nk):
         return math.sqrt(max(total, 0.0)) + penalty * nk

@@ -36,7 +36,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Iterable, Iterator
-from typing import IO
+from typing import IO, Any
 
 FIFO_WAIT_S = 2.0
 """How long :func:`atomic_writer` waits for a reader to open a named pipe before giving up."""
@@ -55,11 +55,10 @@ def _named(exc: OSError, path: str | os.PathLike[str]) -> OSError:
 
 def _umask() -> int:
     """The process umask, read without changing it where the platform allows."""
-    with contextlib.suppress(OSError, ValueError):
-        with open("/proc/self/status", encoding="ascii", errors="replace") as fh:
-            for line in fh:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
+    with contextlib.suppress(OSError, ValueError), open("/proc/self/status", encoding="ascii", errors="replace") as fh:
+        for line in fh:
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
@@ -210,7 +209,7 @@ def _ours(exc: OSError, folder: str) -> bool:
 
 # --- the writers -----------------------------------------------------------------------------------
 
-def _wrap(fd: int, binary: bool, encoding: str, closefd: bool) -> IO:
+def _wrap(fd: int, binary: bool, encoding: str, closefd: bool) -> IO[Any]:
     if binary:
         return os.fdopen(fd, "wb", closefd=closefd)
     return os.fdopen(fd, "w", encoding=encoding, newline="", closefd=closefd)
@@ -283,7 +282,7 @@ def _copy_to_named(fd: int, dest: str, mode: int, old: os.stat_result | None) ->
 
 
 @contextlib.contextmanager
-def _regular(user: str, dest: str, old: os.stat_result | None, binary: bool, encoding: str) -> Iterator[IO]:
+def _regular(user: str, dest: str, old: os.stat_result | None, binary: bool, encoding: str) -> Iterator[IO[Any]]:
     folder = os.path.dirname(dest) or "."
     mode = (old.st_mode & 0o7777) if old is not None else (0o666 & ~_umask())
     tmp = None
@@ -337,7 +336,7 @@ def _open_fifo(user: str, wait: float) -> int:
 
 
 @contextlib.contextmanager
-def _into(user: str, fd: int, binary: bool, encoding: str) -> Iterator[IO]:
+def _into(user: str, fd: int, binary: bool, encoding: str) -> Iterator[IO[Any]]:
     """Write into an open device, pipe or own descriptor (nothing is replaced)."""
     try:
         fh = _wrap(fd, binary, encoding, closefd=True)
@@ -356,7 +355,7 @@ def _into(user: str, fd: int, binary: bool, encoding: str) -> Iterator[IO]:
 
 @contextlib.contextmanager
 def atomic_writer(path: str | os.PathLike[str], *, binary: bool = False,
-                  encoding: str = "utf-8") -> Iterator[IO]:
+                  encoding: str = "utf-8") -> Iterator[IO[Any]]:
     """Context manager yielding a file object that writes ``path`` safely (see the module docstring).
 
     A regular file (or the final target of a symlink) is replaced atomically on a clean exit and left
@@ -368,7 +367,8 @@ def atomic_writer(path: str | os.PathLike[str], *, binary: bool = False,
     user = user if isinstance(user, str) else os.fsdecode(user)
     how, where, st = _resolve(user)
     if how == "fd":
-        n = int(where)  # type: ignore[arg-type]
+        assert isinstance(where, int)  # _resolve gives the descriptor's number for "fd"
+        n = where
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(Exception):
                 if stream is not None and stream.fileno() == n:

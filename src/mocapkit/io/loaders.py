@@ -28,9 +28,9 @@ def kind_of(path: str | Path) -> str:
     """``"skeletal"``, ``"markers"``, ``"table"`` or ``"imu"`` (folders and everything else are IMU data).
 
     A ``.csv`` is ``"markers"`` when it is a Vicon Nexus export (first line ``Trajectories`` or
-    ``Devices``) or the wide CSV of :func:`~mocapkit.io.markers.wide_csv.write_markers_csv` (``time (s),<m>_x (mm),...``); a
-    ``.mot``/``.sto`` is ``"imu"`` when it holds OpenSense orientations (``DataType=Quaternion``),
-    else ``"table"`` (one vector signal, e.g. joint angles).
+    ``Devices``) or the wide CSV of :func:`~mocapkit.io.markers.wide_csv.write_markers_csv`
+    (``time (s),<m>_x (mm),...``); a ``.mot``/``.sto`` is ``"imu"`` when it holds OpenSense orientations
+    (``DataType=Quaternion``), else ``"table"`` (one vector signal, e.g. joint angles).
     """
     p = Path(path)
     if p.exists() and not p.is_file() and not p.is_dir():  # a pipe or device: by suffix, nothing sniffed
@@ -54,7 +54,9 @@ def kind_of(path: str | Path) -> str:
     return "imu"
 
 
-def load_motion(path: str | Path, asf: str | Path | None = None, rate: float | None = None, strict: bool = True) -> Motion:
+def load_motion(
+    path: str | Path, asf: str | Path | None = None, rate: float | None = None, strict: bool = True
+) -> Motion:
     """Read a BVH file, or an AMC file with its ASF skeleton (``asf``, or ``<stem>.asf`` /
     ``<subject>.asf`` beside it, CMU naming)."""
     p = Path(path)
@@ -75,11 +77,15 @@ def load_motion(path: str | Path, asf: str | Path | None = None, rate: float | N
         from mocapkit.io.skeletal.mvnx import read_mvnx
 
         if rate is not None or asf is not None:
-            raise MocapFormatError(str(p), None, "an MVNX file has its own frameRate and skeleton; do not give --rate or --asf")
+            raise MocapFormatError(
+                str(p), None, "an MVNX file has its own frameRate and skeleton; do not give --rate or --asf"
+            )
         return read_mvnx(p)
     if s == ".mkc" and s in MOTION_READERS:
         if rate is not None or asf is not None:
-            raise MocapFormatError(str(p), None, "a mocapkit clip has its own frame times and skeleton; do not give --rate or --asf")
+            raise MocapFormatError(
+                str(p), None, "a mocapkit clip has its own frame times and skeleton; do not give --rate or --asf"
+            )
         return MOTION_READERS[s](p)
     raise MocapFormatError(str(p), None, f"not a skeletal motion file (expected {', '.join(SKELETAL_SUFFIXES)})")
 

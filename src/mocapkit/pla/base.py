@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import sys
 from dataclasses import dataclass
+from types import ModuleType
 from typing import NamedTuple
 
 import numpy as np
@@ -15,7 +16,7 @@ from mocapkit.pla import anglesw, cplr, fastsw, native, sw, swing
 from mocapkit.quat import hemisphere_continuous
 
 #: method name -> (module, keeps original samples as points, threshold meaning)
-METHODS: dict[str, tuple[object, bool, str]] = {
+METHODS: dict[str, tuple[ModuleType, bool, str]] = {
     "fastsw": (fastsw, True, "max SSR per segment (Eq. 13)"),
     "sw": (sw, True, "max SSR per segment (Eq. 5)"),
     "cplr": (cplr, False, "max SSR per segment (regression through the anchor)"),
@@ -175,7 +176,7 @@ def compress(
 class Point(NamedTuple):
     """A segment point emitted by a streaming encoder."""
 
-    index: int
+    index: int  # type: ignore[assignment]  # the field shadows tuple.index (public name of the point)
     time: float
     values: tuple[float, ...]
 
@@ -305,6 +306,7 @@ class Encoder:
             st = self._state
         if not self._mod.step(*st, t, self._x, self._th, self._maxlen):
             return []
+        assert prev_raw is not None  # i > 0: a sample came before
         return [Point(i - 1, prev_t, prev_raw if self._pos else tuple(st[1].tolist()))]
 
     def push_many(self, t, X) -> native.Points:
@@ -326,8 +328,11 @@ class Encoder:
         self._check_many(t, X)
         if self._native is None:  # the compiled kernels, one sample at a time
             pts = [p for i in range(n) for p in self.push(t[i], X[i])]
-            return native.Points(np.array([p.index for p in pts], dtype=np.int64),
-                                 np.array([p.time for p in pts]), np.array([p.values for p in pts]).reshape(-1, self.dim))
+            return native.Points(
+                np.array([p.index for p in pts], dtype=np.int64),
+                np.array([p.time for p in pts]),
+                np.array([p.values for p in pts]).reshape(-1, self.dim),
+            )
         if self._n == 0:
             self._first_t = float(t[0])
         out = self._native.push_many(t, X)
@@ -374,5 +379,6 @@ class Encoder:
             return [] if r is None else [Point(*r)]
         if self._n == 0 or not self._mod.flush(*self._state):
             return []
+        assert self._last_raw is not None  # self._n > 0
         vals = self._last_raw if self._pos else tuple(self._state[1].tolist())
         return [Point(self._n - 1, self._last_t, vals)]

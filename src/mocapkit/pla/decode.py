@@ -15,12 +15,12 @@ def unit_quaternions(q: np.ndarray) -> np.ndarray:
     a zero-norm or NaN quaternion)."""
     q = np.asarray(q, dtype=np.float64)
     if not np.all(np.isfinite(q)):
-        k = int(np.flatnonzero(~np.isfinite(q).all(axis=-1))[0])
-        raise InvalidParameterError(f"segment point {k}: {q[k].tolist()!r} is not finite")
+        i = int(np.flatnonzero(~np.isfinite(q).all(axis=-1))[0])
+        raise InvalidParameterError(f"segment point {i}: {q[i].tolist()!r} is not finite")
     scale = np.abs(q).max(axis=-1, keepdims=True)
     if np.any(scale == 0.0):
-        k = int(np.flatnonzero(scale[..., 0] == 0.0)[0])
-        raise InvalidParameterError(f"segment point {k}: zero-norm quaternion {q[k].tolist()!r}")
+        i = int(np.flatnonzero(scale[..., 0] == 0.0)[0])
+        raise InvalidParameterError(f"segment point {i}: zero-norm quaternion {q[i].tolist()!r}")
     u = q / scale
     return u / np.sqrt(np.einsum("...i,...i->...", u, u))[..., None]
 
@@ -44,9 +44,9 @@ def reconstruct_points(
     if not (np.all(np.isfinite(pt)) and np.all(np.isfinite(t))):
         raise InvalidParameterError("segment point times and decode times must be finite")
     if np.any(np.diff(pt) <= 0):
-        k = int(np.flatnonzero(np.diff(pt) <= 0)[0]) + 1
-        raise InvalidParameterError(f"segment point times must be strictly increasing: point {k} at "
-                                    f"{float(pt[k])!r} s is not after {float(pt[k - 1])!r} s")
+        i = int(np.flatnonzero(np.diff(pt) <= 0)[0]) + 1
+        raise InvalidParameterError(f"segment point times must be strictly increasing: point {i} at "
+                                    f"{float(pt[i])!r} s is not after {float(pt[i - 1])!r} s")
     if kind == "quaternion":
         pv = unit_quaternions(pv)  # also refuses NaN/inf and zero-norm points
     elif not np.all(np.isfinite(pv)):

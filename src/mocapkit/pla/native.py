@@ -48,9 +48,9 @@ def sensor_ticks(t: np.ndarray, epoch: float, tick: float = DEFAULT_TICK) -> np.
 
 def _module(precision: str):
     if precision == "float64":
-        from mocapkit import _mkpla64 as mod
+        import mocapkit._mkpla64 as mod
     elif precision == "float32":
-        from mocapkit import _mkpla32 as mod
+        import mocapkit._mkpla32 as mod
     else:
         raise InvalidParameterError(f"precision must be 'float64' or 'float32', got {precision!r}")
     return mod

@@ -30,8 +30,8 @@ A packet (all of it covered by its CRC-16)::
 Reading is strict about the container: a bad header or a packet whose CRC matches but whose content
 is impossible is a :class:`~mocapkit.errors.MocapFormatError` naming the file and the packet. A packet
 whose CRC does not match (a radio error), or a last record cut short by the end of the file (a
-receiver's log cut by a power loss), is *reported*, not raised: it is dropped, and the missing sequence numbers of its sensor are listed, so the decoder can refuse to
-bridge the gap (:attr:`SensorPoints.gap_before`).
+receiver's log cut by a power loss), is *reported*, not raised: it is dropped, and the missing sequence numbers of its
+sensor are listed, so the decoder can refuse to bridge the gap (:attr:`SensorPoints.gap_before`).
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ import math
 import struct
 import zlib
 from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 
@@ -281,7 +282,9 @@ def _parse_header(data: bytes, where: str) -> tuple[Header, int]:
     if magic != MAGIC:
         raise MocapFormatError(where, None, f"not a mocapkit packet file (magic {magic!r}, expected {MAGIC!r})")
     if version != VERSION:
-        raise MocapFormatError(where, None, f"packet format version {version} is not supported (this mocapkit reads {VERSION})")
+        raise MocapFormatError(
+            where, None, f"packet format version {version} is not supported (this mocapkit reads {VERSION})"
+        )
     pos = _FIXED.size
     sensors = []
     for i in range(n):
@@ -407,6 +410,19 @@ def parse_packet(pkt: bytes, bits: int) -> _Packet:
     return _Packet(sensor, seq, last, ticks, codes)
 
 
+class _Stream(TypedDict):
+    """What :func:`decode_mkp` gathers of one sensor while it reads the packets."""
+
+    ticks: list[int]
+    codes: list[tuple[int, int, int, int]]
+    gap: list[bool]
+    packets: int
+    lost: list[int]
+    ended: bool
+    seq: int | None
+    last_tick: int
+
+
 def decode_mkp(data: bytes, where: str) -> PacketFile:
     """Decode a ``.mkp`` file's bytes: every sensor's points that arrived, the damaged and lost packets;
     ``where`` (the file's path, or any label) names the file in errors."""
@@ -414,7 +430,7 @@ def decode_mkp(data: bytes, where: str) -> PacketFile:
     bits = header.bits
     m = (1 << bits) - 1
     h2 = half_step(bits) ** 2
-    acc = [{"ticks": [], "codes": [], "gap": [], "packets": 0, "lost": [], "ended": False, "seq": None,
+    acc: list[_Stream] = [{"ticks": [], "codes": [], "gap": [], "packets": 0, "lost": [], "ended": False, "seq": None,
             "last_tick": -1} for _ in header.sensors]
     damaged: list[Damaged] = []
     index = 0
@@ -448,7 +464,9 @@ def decode_mkp(data: bytes, where: str) -> PacketFile:
             if a["seq"] is None:
                 missing = p.seq
                 if p.seq == 0 and p.ticks and p.ticks[0] != 0:
-                    raise MocapFormatError(where, None, f"{here}: {name}: sequence 0 starts at tick {p.ticks[0]}, not 0")
+                    raise MocapFormatError(
+                        where, None, f"{here}: {name}: sequence 0 starts at tick {p.ticks[0]}, not 0"
+                    )
             else:
                 missing = (p.seq - a["seq"] - 1) & 0xFFFF
                 if missing >= 0x8000:
@@ -458,7 +476,7 @@ def decode_mkp(data: bytes, where: str) -> PacketFile:
             if p.ticks and p.ticks[0] <= a["last_tick"]:
                 raise MocapFormatError(where, None, f"{here}: {name}: tick {p.ticks[0]} is not after tick "
                                                     f"{a['last_tick']} of the previous packet")
-            for k, (t, c) in enumerate(zip(p.ticks, p.codes)):
+            for k, (t, c) in enumerate(zip(p.ticks, p.codes, strict=False)):
                 s = sum((2 * x - m) ** 2 for x in c[1:]) * h2
                 if s > 1.0:
                     raise MocapFormatError(where, None, f"{here}: point {k}: its codes lie outside the unit sphere")
@@ -471,7 +489,7 @@ def decode_mkp(data: bytes, where: str) -> PacketFile:
             a["ended"] = p.last
         index += 1
     streams = {}
-    for sensor, a in zip(header.sensors, acc):
+    for sensor, a in zip(header.sensors, acc, strict=True):
         problem = clock_problem(sensor, np.array(a["ticks"], dtype=np.int64))
         if problem:
             raise MocapFormatError(where, None, f"header: {problem}")

@@ -3,10 +3,10 @@ local translation a 3-D vector stream, each compressed with the PLA methods.
 
 Error in the user's terms (``max_position_error``): every joint's *world-space* position in every
 frame stays within the bound (and every End Site's with ``end_sites=True``, what ``compress`` asks by
-default: the reach below covers End Sites, which a joint's own rotation moves too). A rotation error ``δ`` at joint ``i`` moves every descendant ``k`` by at
-most ``2·sin(δ/2)·|p_k − p_i|``, and errors of a chain add up (triangle inequality, distances being
-kept by rotations), so with ``reach_i`` = the largest distance from joint ``i`` to any of its
-descendants or end sites (over all frames, from forward kinematics) and ``H`` the largest number of
+default: the reach below covers End Sites, which a joint's own rotation moves too). A rotation error ``δ`` at joint
+``i`` moves every descendant ``k`` by at most ``2·sin(δ/2)·|p_k − p_i|``, and errors of a chain add up (triangle
+inequality, distances being kept by rotations), so with ``reach_i`` = the largest distance from joint ``i`` to any of
+its descendants or end sites (over all frames, from forward kinematics) and ``H`` the largest number of
 animated joints on a root-to-leaf chain, budgets of ``E/H`` per joint — angle
 ``2·asin(E/(2·H·reach_i))`` for its rotation (encoded with the angle-bounded SW, which guarantees it)
 and ``E/H`` for its translation (Swing Filter with ``ε = E/(H·√3)``) — guarantee ``E`` everywhere. That
@@ -64,7 +64,9 @@ class SkeletalCompressed:
 
     def bytes_out(self) -> int:
         """Keyframes as float32 time + value (what the glTF buffer holds, without padding)."""
-        return sum(20 * c.n_points for c in self.rotations.values()) + sum(16 * c.n_points for c in self.translations.values())
+        return sum(20 * c.n_points for c in self.rotations.values()) + sum(
+            16 * c.n_points for c in self.translations.values()
+        )
 
     def decode(self) -> Motion:
         """Full-rate motion (SLERP / linear between keyframes) at the original frame times."""
@@ -148,9 +150,9 @@ def _reach(motion: Motion) -> np.ndarray:
         pos = np.empty(J, dtype=np.int64)
         pos[order] = np.arange(J)
         order_arr = np.asarray(order, dtype=np.int64)
-        ends = sorted(range(len(sk.end_sites)), key=lambda e: pos[sk.end_sites[e][0]])
-        end_pos = np.array([pos[sk.end_sites[e][0]] for e in ends], dtype=np.int64)
-        ends = np.asarray(ends, dtype=np.int64)
+        end_order = sorted(range(len(sk.end_sites)), key=lambda e: pos[sk.end_sites[e][0]])
+        end_pos = np.array([pos[sk.end_sites[e][0]] for e in end_order], dtype=np.int64)
+        ends = np.asarray(end_order, dtype=np.int64)
         for j in range(J):
             a, b = int(pos[j]), int(pos[j] + size[j])
             r = 0.0
@@ -236,6 +238,7 @@ def compress_motion(
         return out
     if target_icr is not None:
         return _to_icr(motion, method, target_icr, rs, ts, max_segment_length, progress)
+    assert max_position_error is not None  # exactly one of the three is given (checked above)
     return _to_position_bound(motion, float(max_position_error), rs, ts, max_segment_length, progress, end_sites)
 
 
@@ -327,7 +330,9 @@ def _to_position_bound(motion, E, rs, ts, maxlen, progress=None, end_sites=False
         elif reach[j] <= 0:  # nothing hangs below this joint: its rotation moves no position
             out.rotations[j] = compress(rs[j], "anglesw", 180.0, maxlen)
         else:
-            out.rotations[j] = compress(rs[j], "anglesw", math.degrees(2.0 * math.asin(min(1.0, share / (2.0 * reach[j])))), maxlen)
+            out.rotations[j] = compress(
+                rs[j], "anglesw", math.degrees(2.0 * math.asin(min(1.0, share / (2.0 * reach[j])))), maxlen
+            )
 
     parents = motion.skeleton.parents.tolist()
 
@@ -389,8 +394,8 @@ def report(comp: SkeletalCompressed, unit_cm: float | None = None) -> dict:
     perr = position_errors(m, dec)
     eerr = position_errors(m, dec, end_sites=True)[:, m.skeleton.n_joints:]
     k = unit_cm if unit_cm is not None else float("nan")
-    ang = [angular_distance(m.rotations[:, j], dec.rotations[:, j], degrees=True) for j in comp.rotations]
-    ang = np.concatenate(ang) if ang else np.zeros(1)
+    per_track = [angular_distance(m.rotations[:, j], dec.rotations[:, j], degrees=True) for j in comp.rotations]
+    ang = np.concatenate(per_track) if per_track else np.zeros(1)
     return {
         "method": comp.method,
         **{k2: v for k2, v in comp.info.items() if k2 != "max_position_error"},

@@ -118,7 +118,8 @@ def verify_max_angle(signal: Signal, comp: Compressed, max_angle_deg: float) -> 
     m = max_deviation_deg(signal, comp)
     if not m <= max_angle_deg + BOUND_TOL_DEG:
         raise BoundViolationError(
-            f"{signal.source or signal.name or 'signal'}: maximum deviation {m:.6g}° exceeds the bound {max_angle_deg:g}°"
+            f"{signal.source or signal.name or 'signal'}: maximum deviation {m:.6g}° exceeds the bound "
+            f"{max_angle_deg:g}°"
         )
     return m
 
@@ -149,6 +150,7 @@ def compress_to(
         return _finite(compress(signal, method, threshold, max_segment_length))
     if target_icr is not None:
         return _finite(threshold_for_icr(signal, method, target_icr, max_segment_length))
+    assert max_angle is not None  # exactly one of the three is given (checked above)
     comp = threshold_for_max_angle(signal, method, float(max_angle), max_segment_length)
     verify_max_angle(signal, comp, float(max_angle))
     return comp

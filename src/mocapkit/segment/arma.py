@@ -32,8 +32,8 @@ stays an option (``differencing``, ``order``, ``cut``; steps 2, 4, 6 and 9):
    is appropriate" — the least F over the grid, F the mean squared one-step error of the model on the
    whole differenced sequence of a limb. ``order="parsimonious"``: the same F (below). The paper
    searches (p, q) by particle swarm optimisation (Eq. 23–24); an exhaustive search over the small
-   grid finds the exact optimum PSO approximates, so it replaces it. Because in-sample F can only fall as the order grows,
-   "parsimonious" takes the smallest p + q whose F is within ``order_rtol`` of the best (our earlier
+   grid finds the exact optimum PSO approximates, so it replaces it. Because in-sample F can only fall as the order
+   grows, "parsimonious" takes the smallest p + q whose F is within ``order_rtol`` of the best (our earlier
    default, with p ≤ 4, q ≤ 2).
 7. **R² per window** (Eq. 28–29) against ``r2_min`` = 0.6: a window whose R² is below the threshold
    holds a segmentation point. SSE and SST run over the samples the fit predicts (the first p, or
@@ -72,8 +72,8 @@ stays an option (``differencing``, ``order``, ``cut``; steps 2, 4, 6 and 9):
 10. **Median ensemble over limbs** (Eq. 32). The paper takes the median of each row of the matrix
     of per-limb cuts, which needs every limb to find the same number of cuts. We define: all cuts of
     all limbs are pooled and sorted; a cut within ``ensemble_tol`` samples of its group's first cut
-    joins that group, otherwise it starts a new one; a group with cuts from at least ``min_limbs`` different limbs gives one cut at
-    the median of its members (each limb first reduced to the median of its own members), other
+    joins that group, otherwise it starts a new one; a group with cuts from at least ``min_limbs`` different limbs gives
+    one cut at the median of its members (each limb first reduced to the median of its own members), other
     groups are dropped. When all limbs find the same cuts in the same order within the tolerance,
     this equals the paper's row-wise median. Groups are complete-linkage: a group spans at most
     ``ensemble_tol`` samples from its first cut, so chains of nearby cuts cannot merge far-apart ones.
@@ -141,7 +141,11 @@ def _r2(y: np.ndarray, resid: np.ndarray) -> float:
 def _lagged(z: np.ndarray, p: int, start: int) -> np.ndarray:
     """Design columns ``[z_{t-1}, ..., z_{t-p}]`` for ``t = start..m-1`` of each row of ``z`` ``(K, m)``."""
     m = z.shape[1]
-    return np.stack([z[:, start - i:m - i] for i in range(1, p + 1)], axis=2) if p else np.empty((z.shape[0], m - start, 0))
+    return (
+        np.stack([z[:, start - i : m - i] for i in range(1, p + 1)], axis=2)
+        if p
+        else np.empty((z.shape[0], m - start, 0))
+    )
 
 
 @dataclass(frozen=True)
@@ -213,8 +217,10 @@ def predict_one_step(fit: ARMAFit, k: int, x: np.ndarray, history: np.ndarray) -
     beta = fit.coef[k, 1:1 + fit.p]
     lam = fit.coef[k, 1 + fit.p:]
     lags = fit.p
+    long_coef = fit.long_coef
     if fit.q:
-        L = fit.long_coef.shape[1] - 1
+        assert long_coef is not None  # fit_arma keeps the long AR whenever q > 0
+        L = long_coef.shape[1] - 1
         lags = max(fit.p, L + fit.q)
     if history.size < lags:
         raise InvalidParameterError(f"one-step prediction needs {lags} samples of history, got {history.size}")
@@ -224,7 +230,8 @@ def predict_one_step(fit: ARMAFit, k: int, x: np.ndarray, history: np.ndarray) -
     for i in range(1, fit.p + 1):
         pred += beta[i - 1] * full[lags - i:lags - i + n]
     if fit.q:
-        lc = fit.long_coef[k]
+        assert long_coef is not None
+        lc = long_coef[k]
         m = n + fit.q  # innovations for samples -q..n-1 of x
         eps = full[lags - fit.q:].copy()
         eps -= lc[0]
@@ -364,7 +371,9 @@ class ARMASegmenter(Segmenter):
             if value not in allowed:
                 raise InvalidParameterError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
         if r2_fit == "sequence" and order == "aic":
-            raise InvalidParameterError("r2_fit='sequence' fits one model per limb: use order='best_f' or 'parsimonious'")
+            raise InvalidParameterError(
+                "r2_fit='sequence' fits one model per limb: use order='best_f' or 'parsimonious'"
+            )
         if r2_fit not in ("window", "sequence"):
             raise InvalidParameterError(f"r2_fit must be 'window' or 'sequence', got {r2_fit!r}")
         if not 0 < r2_min < 1:
@@ -462,7 +471,7 @@ class ARMASegmenter(Segmenter):
         d = self.diff_order
         if self.differencing == "adf":
             bounds = self.windows(x.size)
-            out = []
+            out: list[tuple[np.ndarray, int, int] | None] = []
             for s, e in bounds:
                 w = x[s:e]
                 if self._stationary(w):
@@ -483,12 +492,12 @@ class ARMASegmenter(Segmenter):
         ``armax`` + ``aic`` over p, q ≤ 5), σ̂² over the samples every order of the grid predicts."""
         grid = [(p, q) for p in self.p_range for q in self.q_range if p + q > 0]
         tail = max((max(2 * (p + q), p + q + 2) + q) if q else p for p, q in grid)
-        best = [None] * len(series)
+        best: list[tuple[int, int] | None] = [None] * len(series)
         by_len: dict[int, list[int]] = {}
         for k, item in enumerate(series):
             if item is not None:
                 by_len.setdefault(item[0].size, []).append(k)
-        for m, ks in by_len.items():
+        for ks in by_len.values():
             stack = np.stack([series[k][0] for k in ks])
             scores = np.full((len(ks), len(grid)), np.inf)
             for j, (p, q) in enumerate(grid):
@@ -508,11 +517,11 @@ class ARMASegmenter(Segmenter):
         d = self.diff_order
         if self.r2_fit == "sequence":
             z = np.diff(x, n=d) if d else x.copy()
-            (p, q), F = self.select_order(z)
+            (p, q), F_seq = self.select_order(z)
             scale = max(float(np.abs(z).max()) if z.size else 0.0, np.finfo(float).tiny)
-            return self._channel_sequence(z, self.windows(z.size), (p, q), F, scale)
+            return self._channel_sequence(z, self.windows(z.size), (p, q), F_seq, scale)
         bounds, series = self.window_models(x)
-        F = None
+        F: dict | None = None
         if self.order == "aic":
             orders = self._aic_orders(series)
         else:  # one order per limb, by Eq. 25 on the whole differenced sequence
@@ -551,7 +560,7 @@ class ARMASegmenter(Segmenter):
             # "is the current model suitable to continue to describe the subsequent sequence" (Sec. 5.3):
             # the preceding window's model, where it models the same contiguous series
             use_prev = self.differencing == "fixed" and prev is not None and prev[2] == dk
-            if use_prev:
+            if use_prev and prev is not None:
                 fp, rowp = fits[k - 1]
                 err = seg - predict_one_step(fp, rowp, seg, prev[0])
                 idx = np.arange(seg.size)
@@ -662,7 +671,7 @@ class ARMASegmenter(Segmenter):
         return [int(c) * stride for c in curve.cuts(k)]
 
     # -- API -----------------------------------------------------------------------------------
-    def fit(self, X) -> "ARMASegmenter":
+    def fit(self, X) -> ARMASegmenter:
         X = as_signal(X)
         n = X.shape[0]
         x = X[:: self.downsample]

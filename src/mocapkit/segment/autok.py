@@ -63,6 +63,7 @@ def _segment_costs(z: np.ndarray, cost: str, gamma: float | None) -> np.ndarray:
     lens = np.arange(n + 1)[None, :] - np.arange(n + 1)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         if cost == "rbf":
+            assert gamma is not None  # cost_curve sets it for "rbf"
             K = rbf_kernel(z, None, gamma)
             S = np.zeros((n + 1, n + 1))
             S[1:, 1:] = K.cumsum(0).cumsum(1)
@@ -166,7 +167,9 @@ def _check_curve(costs, c: float, noise_range) -> np.ndarray:
         lo, hi = (float(v) for v in noise_range)
         c = float(c)
     except (TypeError, ValueError):
-        raise InvalidParameterError(f"c must be a number and noise_range a pair of numbers, got {c!r}, {noise_range!r}") from None
+        raise InvalidParameterError(
+            f"c must be a number and noise_range a pair of numbers, got {c!r}, {noise_range!r}"
+        ) from None
     if not 0 <= lo < hi <= 1 or not 0 < c < np.inf:
         raise InvalidParameterError("need 0 <= noise_range[0] < noise_range[1] <= 1 and a finite c > 0")
     return C
@@ -247,7 +250,7 @@ class AutoSegmenter(Segmenter):
         self.c = float(c)
         self.noise_range = (float(noise_range[0]), float(noise_range[1]))
 
-    def fit(self, X) -> "AutoSegmenter":
+    def fit(self, X) -> AutoSegmenter:
         x = as_signal(X)
         n = x.shape[0]
         self.n_frames_ = n

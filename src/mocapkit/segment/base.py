@@ -35,7 +35,7 @@ class Segmenter:
     n_frames_: int
     cuts_: np.ndarray
 
-    def fit(self, X) -> "Segmenter":  # pragma: no cover - overridden
+    def fit(self, X) -> Segmenter:  # pragma: no cover - overridden
         """Segment ``X`` and keep the cuts in ``self.cuts_``."""
         raise NotImplementedError
 

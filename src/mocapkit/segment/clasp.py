@@ -128,7 +128,7 @@ class ClaSPSegmenter(Segmenter):
         self.n_jobs = int(n_jobs)
         self.random_state = int_param(random_state, "random_state", 0)
 
-    def fit(self, X) -> "ClaSPSegmenter":
+    def fit(self, X) -> ClaSPSegmenter:
         """Segment ``X`` and store the cuts.
 
         Parameters
@@ -156,7 +156,7 @@ class ClaSPSegmenter(Segmenter):
         z = z[:, np.any(z != 0.0, axis=0)]
         self.n_frames_ = n
         self.window_size_ = None
-        cuts = np.zeros(0, dtype=np.int64)
+        cuts: np.ndarray = np.zeros(0, dtype=np.int64)
         m = z.shape[0]
         if z.shape[1] > 0 and m >= 6 * self.excl_radius and self.n_cuts != 0:
             known = self.n_cuts is not None

@@ -96,7 +96,7 @@ def best_matching(found, ref) -> dict:
     (``{found class: reference label}``; classes left over are absent)."""
     c, fv, rv = contingency(found, ref)
     rows, cols = linear_sum_assignment(c, maximize=True)
-    return {fv[i]: rv[j] for i, j in zip(rows, cols)}
+    return {fv[i]: rv[j] for i, j in zip(rows, cols, strict=True)}
 
 
 def frame_accuracy(found, ref) -> float:

@@ -86,10 +86,7 @@ def acf(x, nlags: int, adjusted: bool = False) -> np.ndarray:
     d = x - x.mean()
     # each lag a dot product: exact, O(n·nlags), and nlags is small (≤ n/4 in practice)
     g = np.array([d[k:] @ d[: n - k] for k in range(nlags + 1)])
-    if adjusted:
-        g = g / (n - np.arange(nlags + 1))
-    else:
-        g = g / n
+    g = g / (n - np.arange(nlags + 1)) if adjusted else g / n
     out = np.full(nlags + 1, np.nan)
     out[0] = 1.0
     if g[0] > 0:

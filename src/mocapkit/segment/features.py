@@ -97,7 +97,9 @@ def resolve_joint_map(names, overrides: dict[str, str] | None = None) -> dict[st
         if role in overrides:
             name = overrides[role]
             if name not in names:
-                raise InvalidParameterError(f"joint map: role {role!r} → {name!r}, but the skeleton has no joint {name!r}")
+                raise InvalidParameterError(
+                    f"joint map: role {role!r} → {name!r}, but the skeleton has no joint {name!r}"
+                )
             out[role] = name
             continue
         for cand in JOINT_CANDIDATES[role]:

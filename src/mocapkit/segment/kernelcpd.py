@@ -77,7 +77,7 @@ class KernelCPDSegmenter(Segmenter):
         self.downsample = int_param(downsample, "downsample", 1)
         self.gamma = None if gamma is None else float_param(gamma, "gamma")
 
-    def fit(self, X) -> "KernelCPDSegmenter":
+    def fit(self, X) -> KernelCPDSegmenter:
         """Segment ``X`` and store the cuts.
 
         Parameters

@@ -98,7 +98,7 @@ class KMeansSegmenter(Segmenter):
             return 1, scores
         return max(scores, key=lambda k: (scores[k], -k)), scores
 
-    def fit(self, X) -> "KMeansSegmenter":
+    def fit(self, X) -> KMeansSegmenter:
         """Cluster the frames of ``X`` and store the cuts.
 
         Parameters

@@ -138,7 +138,7 @@ def segments_from_cuts(cuts, n: int) -> list[tuple[int, int]]:
     """
     n = _check_n(n)
     b = _bounds(_check_cuts(cuts, n, "cuts"), n)
-    return [(int(s), int(e)) for s, e in zip(b[:-1], b[1:])]
+    return [(int(s), int(e)) for s, e in zip(b[:-1], b[1:], strict=True)]
 
 
 def ri_paper(pred_cuts, ref_cuts, n: int) -> float:
@@ -341,7 +341,7 @@ def f1_margin(pred_cuts, ref_cuts, n: int, margin: float, intervals=None) -> F1R
         last = np.searchsorted(pred, hi, side="right")
         counts = last - first
         rows = np.repeat(np.arange(n_ref), counts)
-        cols = np.concatenate([np.arange(a, b) for a, b in zip(first, last)]).astype(np.int64)
+        cols = np.concatenate([np.arange(a, b) for a, b in zip(first, last, strict=True)]).astype(np.int64)
         hits = csr_matrix(
             (np.ones(rows.size, dtype=np.int8), (rows, cols)), shape=(n_ref, n_pred)
         )

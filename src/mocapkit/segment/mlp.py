@@ -5,7 +5,8 @@ is trained."""
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -103,7 +104,8 @@ class MLPSegmenter(Segmenter):
             raise InvalidParameterError("train must be a sequence of (X, labels) pairs") from None
         if not pairs:
             raise InvalidParameterError("train must hold at least one labelled take")
-        signals, labels = [], []
+        signals: list[np.ndarray] = []
+        labels: list[np.ndarray] = []
         for i, pair in enumerate(pairs):
             if not isinstance(pair, (tuple, list)) or len(pair) != 2:
                 raise InvalidParameterError(f"train[{i}] must be an (X, labels) pair")
@@ -121,7 +123,7 @@ class MLPSegmenter(Segmenter):
             labels.append(y)
         if np.unique(np.concatenate(labels)).size < 2:
             raise InvalidParameterError("train must hold at least two distinct labels")
-        self.train = list(zip(signals, labels))
+        self.train = list(zip(signals, labels, strict=True))
         try:
             self.hidden_layer_sizes = tuple(
                 int_param(h, "hidden_layer_sizes[...]", 1) for h in hidden_layer_sizes
@@ -156,7 +158,7 @@ class MLPSegmenter(Segmenter):
         self.model_ = model
         self.classes_ = model.classes_
 
-    def fit(self, X) -> "MLPSegmenter":
+    def fit(self, X) -> MLPSegmenter:
         """Train (first call only), label the frames of ``X`` and store the cuts.
 
         Parameters

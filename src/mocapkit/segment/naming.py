@@ -11,10 +11,10 @@ Steps (:func:`name_actions`):
    Gaussian kernel ``exp(-gamma |x - y|^2)``, ``gamma`` = 1 / median squared distance between frames
    (median heuristic on at most 1,000 pooled frames); the square root of the biased estimate of MMD²
    (never negative, unlike the unbiased one, whose clipping at 0 made many spreads exactly 0). It
-   compares the *distributions* of poses of two segments, ignoring frame order: cheap, and two stretches of a periodic action (walking) match whatever their phase and number of
-   cycles. Each segment is represented by at most ``max_frames`` evenly spaced frames.
-   ``distance="dtw"``: :func:`mocapkit.segment.similarity.dtw` on the same standardised, thinned
-   segments (imported when asked for).
+   compares the *distributions* of poses of two segments, ignoring frame order: cheap, and two stretches of a periodic
+   action (walking) match whatever their phase and number of cycles. Each segment is represented by at most
+   ``max_frames`` evenly spaced frames. ``distance="dtw"``: :func:`mocapkit.segment.similarity.dtw` on the same
+   standardised, thinned segments (imported when asked for).
 3. **Clustering.** Average-linkage hierarchical clustering (:func:`scipy.cluster.hierarchy.linkage`)
    of the distance matrix.
 4. **Number of classes, without labels.** ``rule="threshold"`` (default): the dendrogram is cut at
@@ -63,7 +63,8 @@ import numpy as np
 from mocapkit.errors import InvalidParameterError
 from mocapkit.segment._common import float_param, int_param, standardise
 
-__all__ = ["DISTANCES", "RULES", "SPREADS", "THRESHOLD_SCALE", "Naming", "class_letter", "name_actions", "name_segments"]
+__all__ = ["DISTANCES", "RULES", "SPREADS", "THRESHOLD_SCALE", "Naming", "class_letter", "name_actions",
+           "name_segments"]
 
 #: Distances between segments.
 DISTANCES = ("mmd", "dtw")
@@ -148,7 +149,9 @@ def _check_take(x, k: int) -> np.ndarray:
     if a.ndim == 1:
         a = a[:, None]
     if a.ndim != 2 or a.shape[0] == 0 or a.shape[1] == 0:
-        raise InvalidParameterError(f"take {k}: features must be a non-empty (frames, features) array, got shape {a.shape}")
+        raise InvalidParameterError(
+            f"take {k}: features must be a non-empty (frames, features) array, got shape {a.shape}"
+        )
     bad = ~np.isfinite(a)
     if bad.any():
         i, j = np.argwhere(bad)[0]
@@ -184,7 +187,7 @@ def _as_takes(takes_features, takes_cuts) -> tuple[list[np.ndarray], list[np.nda
     for k, x in enumerate(feats):
         if x.shape[1] != d:
             raise InvalidParameterError(f"take {k} has {x.shape[1]} feature columns, take 0 has {d}")
-    cuts = [_check_cuts(c, x.shape[0], k) for k, (x, c) in enumerate(zip(feats, cuts))]
+    cuts = [_check_cuts(c, x.shape[0], k) for k, (x, c) in enumerate(zip(feats, cuts, strict=True))]
     return feats, cuts
 
 
@@ -208,7 +211,7 @@ def _mmd_matrix(parts: list[np.ndarray], gamma: float) -> np.ndarray:
     stacked = np.concatenate(parts)
     sizes = np.array([p.shape[0] for p in parts])
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    sums = np.empty((len(parts), len(parts)))
+    sums: np.ndarray = np.empty((len(parts), len(parts)))
     for i, p in enumerate(parts):
         g = np.exp(-gamma * cdist(p, stacked, "sqeuclidean"))
         sums[i] = np.add.reduceat(g.sum(axis=0), starts)
@@ -292,7 +295,9 @@ def _first_appearance(labels: np.ndarray) -> np.ndarray:
     return np.array([order.setdefault(int(v), len(order)) for v in labels], dtype=np.int64)
 
 
-def _cluster(d: np.ndarray, rule: str, n_classes: int | None, threshold: float, max_classes: int) -> tuple[np.ndarray, str, float | None]:
+def _cluster(
+    d: np.ndarray, rule: str, n_classes: int | None, threshold: float, max_classes: int
+) -> tuple[np.ndarray, str, float | None]:
     from scipy.cluster.hierarchy import fcluster, linkage
     from scipy.spatial.distance import squareform
 
@@ -385,7 +390,9 @@ def name_actions(
     if spread not in SPREADS:
         raise InvalidParameterError(f"spread must be one of {', '.join(SPREADS)}, got {spread!r}")
     block = int_param(block, "block", MIN_SPREAD_FRAMES // 2)
-    threshold_scale = THRESHOLD_SCALE[spread] if threshold_scale is None else float_param(threshold_scale, "threshold_scale")
+    threshold_scale = (
+        THRESHOLD_SCALE[spread] if threshold_scale is None else float_param(threshold_scale, "threshold_scale")
+    )
     feats, cuts = _as_takes(takes_features, takes_cuts)
 
     z_all = standardise(np.concatenate(feats))
@@ -397,7 +404,7 @@ def name_actions(
         gamma = float_param(gamma, "gamma")
     bounds, segs = [], []
     start = 0
-    for x, c in zip(feats, cuts):
+    for x, c in zip(feats, cuts, strict=True):
         n = x.shape[0]
         z = z_all[start:start + n]
         start += n

@@ -172,7 +172,7 @@ class PCASegmenter(Segmenter):
             "cut": cut,
         }
 
-    def fit(self, X) -> "PCASegmenter":
+    def fit(self, X) -> PCASegmenter:
         """Scan ``X`` and store the cuts.
 
         Parameters

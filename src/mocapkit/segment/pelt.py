@@ -40,7 +40,7 @@ def _prefix_cost(base_cost: type, model: str, gamma: float | None) -> Any:
         def model(self) -> str:
             return model
 
-        def fit(self, signal: np.ndarray) -> "PrefixSumCost":
+        def fit(self, signal: np.ndarray) -> PrefixSumCost:
             z = np.asarray(signal, dtype=np.float64)
             z = z.reshape(-1, 1) if z.ndim == 1 else z
             self.signal = z
@@ -215,7 +215,7 @@ class PELTSegmenter(Segmenter):
                 hi = (pen, bkps, cost)
         return self._prune(algo, lo[1], k)
 
-    def fit(self, X) -> "PELTSegmenter":
+    def fit(self, X) -> PELTSegmenter:
         """Segment ``X`` and store the cuts.
 
         Parameters
@@ -261,7 +261,7 @@ class PELTSegmenter(Segmenter):
                 self.pen_ = 0.0 if pen is None else pen
                 if pen is not None and pen > 0.0:
                     bkps = algo.predict(pen=pen)
-            elif self.n_cuts is not None:
+            elif isinstance(self.n_cuts, int):  # a known count (optional_n_cuts: None, "auto" or an int)
                 if self.n_cuts > 0:
                     pen0 = self.pen if self.pen is not None else auto
                     if pen0 <= 0.0:  # no variation: any penalty is as good as another

@@ -25,6 +25,8 @@ them.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from mocapkit.segment.base import Segmenter
 from mocapkit.segment.clasp import ClaSPSegmenter
 from mocapkit.segment.kernelcpd import KernelCPDSegmenter
@@ -35,7 +37,7 @@ from mocapkit.segment.pelt import PELTSegmenter
 
 __all__ = ["BASELINES"]
 
-BASELINES: dict[str, type[Segmenter]] = {
+BASELINES: dict[str, Callable[..., Segmenter]] = {  # the classes; each takes its own options
     "pca": PCASegmenter,
     "kmeans": KMeansSegmenter,
     "mlp": MLPSegmenter,

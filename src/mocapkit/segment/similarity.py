@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -321,7 +322,7 @@ def similarity_table(segments, names=None, *, align: str = "limb", band: int | N
     names = list(names) if names is not None else [f"col{j}" for j in range(d)]
     if len(names) != d:
         raise InvalidParameterError(f"{len(names)} names for {d} columns")
-    pairs = []
+    pairs: list[dict[str, Any]] = []
     for i in range(len(segs)):
         for j in range(i + 1, len(segs)):
             s, t = segs[i], segs[j]
@@ -330,8 +331,8 @@ def similarity_table(segments, names=None, *, align: str = "limb", band: int | N
                 "a": {"take": s.take, "label": s.label, "subject": s.subject, "frames": [s.frame0, s.frame1]},
                 "b": {"take": t.take, "label": t.label, "subject": t.subject, "frames": [t.frame0, t.frame1]},
                 "category": category(s, t),
-                "r": {nm: (None if not math.isfinite(v) else float(v)) for nm, v in zip(names, ps.r)},
-                "distance": {nm: float(v) for nm, v in zip(names, ps.distance)},
+                "r": {nm: (None if not math.isfinite(v) else float(v)) for nm, v in zip(names, ps.r, strict=False)},
+                "distance": {nm: float(v) for nm, v in zip(names, ps.distance, strict=False)},
                 "r_mean": _nanmean(ps.r) if np.all(np.isfinite(ps.r)) else None,
             })
 

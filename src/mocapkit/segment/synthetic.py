@@ -48,11 +48,10 @@ def motion_like(n_changes: int, *, rate: float = 30.0, d: int = 8, min_len_s: fl
     rng = np.random.default_rng(seed)
     lens = np.round(rng.uniform(min_len_s, max_len_s, n_changes + 1) * rate).astype(int)
     cuts = np.cumsum(lens)[:-1]
-    n = int(lens.sum())
     half = int(round(transition_s * rate / 2))
     starts = np.concatenate([[0], cuts])
     acts = [_action(rng, int(m) + 2 * half, d, rate) for m in lens]  # `half` extra samples each side
-    x = np.concatenate([a[half:half + m] for a, m in zip(acts, lens)])
+    x = np.concatenate([a[half:half + m] for a, m in zip(acts, lens, strict=True)])
     if half:
         wgt = np.linspace(0.0, 1.0, 2 * half)[:, None]
         for i, c in enumerate(cuts):  # blend across each change: frames c - half .. c + half - 1

@@ -25,7 +25,7 @@ def decode_runs(at: np.ndarray, point_at: np.ndarray, points: np.ndarray, gap_be
         return out
     gaps = np.zeros(len(point_at), dtype=bool) if gap_before is None else np.asarray(gap_before, dtype=bool)
     starts = [0, *np.flatnonzero(gaps[1:]) + 1, len(point_at)]
-    for a, b in zip(starts[:-1], starts[1:]):
+    for a, b in zip(starts[:-1], starts[1:], strict=True):
         lo, hi = np.searchsorted(at, point_at[a], "left"), np.searchsorted(at, point_at[b - 1], "right")
         if hi > lo:
             out[lo:hi] = interpolate(at[lo:hi], point_at[a:b], points[a:b])

@@ -287,6 +287,7 @@ def export_scene(scene: dict, out, *, fps: float = 30.0, width_px: int = 960, he
                        trail_s=trail_s)
     writer = _gif_writer(fps, GifPalette(view, times)) if fmt == "gif" else _mp4_writer(fps)
     folder, base = os.path.split(target)
+    tmp: str | None
     fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{out.suffix.lower()}", dir=folder or ".")
     os.close(fd)
     try:

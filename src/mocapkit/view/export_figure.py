@@ -82,8 +82,8 @@ class SceneFigure:
         y0, y1 = 0.20, 0.90
         total = sum(_WEIGHTS[k] for k in kinds) or 1.0
         x = 0.01
-        self.views = []
-        for i, (p, kind) in enumerate(zip(panels, kinds)):
+        self.views: list[SkeletonView | MarkerView | SensorView | TimelineView] = []
+        for i, (p, kind) in enumerate(zip(panels, kinds, strict=False)):
             w = 0.98 * _WEIGHTS[kind] / total
             where = f"panel {p.get('id', i)}"
             if kind == "skeleton":
@@ -99,7 +99,7 @@ class SceneFigure:
         for k, a in enumerate(self.moving):  # above everything static, in this order (original, then decode)
             a.set_zorder(10 + k)
         # axes whose limits move (followed skeletons): left out of the background, drawn whole every frame
-        self.redrawn = [v.ax for v in self.views if getattr(v, "follow_half", None) is not None]
+        self.redrawn = [v.ax for v in self.views if isinstance(v, SkeletonView) and v.follow_half is not None]
         self._drawn = [(ax, ax in self.redrawn, [a for a in self.moving if a.axes is ax]) for ax in self.fig.axes]
         assert sum(len(m) for _, _, m in self._drawn) == len(self.moving), "a moving artist outside the axes"
         for ax in self.fig.axes:
@@ -178,6 +178,7 @@ class SceneFigure:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
         canvas = self.fig.canvas
+        assert isinstance(canvas, FigureCanvasAgg)  # _frame_canvas attached an Agg canvas
         if self._background is None:
             hidden = [*self.moving, *self.redrawn]
             for a in hidden:
@@ -210,8 +211,10 @@ class SceneFigure:
         :meth:`frame` is checked against."""
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-        FigureCanvasAgg.draw(self.fig.canvas)
-        return np.asarray(self.fig.canvas.buffer_rgba()).copy()
+        canvas = self.fig.canvas
+        assert isinstance(canvas, FigureCanvasAgg)  # _frame_canvas attached an Agg canvas
+        FigureCanvasAgg.draw(canvas)
+        return np.asarray(canvas.buffer_rgba()).copy()
 
 
 # --- writing -------------------------------------------------------------------------------------

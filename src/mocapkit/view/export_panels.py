@@ -5,6 +5,7 @@ moves them to timeline time ``t`` (``set_segments``, ``set_offsets`` + ``set_3d_
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -68,7 +69,7 @@ def z_up(p: np.ndarray, up: str) -> np.ndarray:
 
 def _limits(points: np.ndarray, pad: float = 0.06) -> np.ndarray | None:
     """``(3, 2)`` axis limits around the finite points (a little margin; a flat axis gets some depth)."""
-    p = points.reshape(-1, 3)
+    p: np.ndarray = points.reshape(-1, 3)
     p = p[np.all(np.isfinite(p), axis=1)]
     if len(p) == 0:
         return None
@@ -178,7 +179,7 @@ class SkeletonView:
             raise MocapFormatError("scene", None, f"{where}.parents: {len(parents)} parents for {J} joints")
         self.parents = parents
         self.follow_half = follow_half
-        self.centre = None  # the followed pose's centre now (follow only)
+        self.centre: np.ndarray | None = None  # the followed pose's centre now (follow only)
         self.bones = np.array([(j, p) for j, p in enumerate(parents) if p >= 0], dtype=np.int64).reshape(-1, 2)
         self.error = _array(panel, "error", where, (J,), optional=True)
         if self.error is not None and self.error.shape[0] != n:
@@ -192,7 +193,9 @@ class SkeletonView:
         unit = _field(panel, "unit", where)
         title = f"{panel.get('name', '')} — {role}"
         if max_error is not None:
-            title += f"\nmax error {float(max_error):.3g} cm" + (f" (bound {float(bound):.3g})" if bound is not None else "")
+            title += f"\nmax error {float(max_error):.3g} cm" + (
+                f" (bound {float(bound):.3g})" if bound is not None else ""
+            )
         if follow_half is None:
             _style_3d(ax, lim, fs, unit)
             ax.set_title(title, fontsize=fs * 0.85, pad=0)
@@ -243,6 +246,7 @@ class SkeletonView:
             if centre is not None:  # no joint drawn: the limits stay where they were
                 self.centre = centre
             h = self.follow_half
+            assert self.centre is not None  # set in __init__ whenever follow_half is
             self.ax.set_xlim(self.centre[0] - h, self.centre[0] + h)
             self.ax.set_ylim(self.centre[1] - h, self.centre[1] + h)
             self.ax.set_zlim(self.centre[2] - h, self.centre[2] + h)
@@ -315,8 +319,10 @@ class SensorView:
                 if q.shape[0] != n:
                     raise MocapFormatError("scene", None, f"{where}.{key}: {q.shape[0]} samples for {n} times")
                 self.mats[key] = quat_matrices(q)
+        triad: dict[str, list[Any]]
         triad = {"colors": ["#d62728", "#2ca02c", "#1f77b4"], "linewidths": [max(fs / 5, 1.5)] * 3,
                  "linestyles": ["-"] * 3}
+        styles: dict[str, dict[str, list[Any]]]
         styles = {"original": {"colors": [ORIGINAL] * 12, "linewidths": [max(fs / 7, 1.2)] * 12,
                                "linestyles": ["-"] * 12},
                   "decoded": {"colors": [DECODED] * 12, "linewidths": [max(fs / 7, 1.2)] * 12,
@@ -356,10 +362,10 @@ class SensorView:
             top = max(top, float(bound))
         words = [f"bound {float(bound):.3g}°" if bound is not None else None,
                  f"max {float(sensor['max_error_deg']):.3g}°" if sensor.get("max_error_deg") is not None else None]
-        words = [w for w in words if w]
+        said = [w for w in words if w]
         kf = _array(sensor, "keyframes", where, optional=True)
         kf = kf.ravel() if kf is not None else np.zeros(0)
-        ax2.set_title(f"{sensor.get('name', '')}: angle error" + (f" ({', '.join(words)})" if words else "")
+        ax2.set_title(f"{sensor.get('name', '')}: angle error" + (f" ({', '.join(said)})" if said else "")
                       + (f", {len(kf)} keyframes (purple ticks)" if len(kf) else ""), fontsize=fs * 0.7, pad=2)
         ax2.set_ylim(0, top * 1.15)
         # keyframes: short ticks hanging under the time axis (a fixed length in points, whatever the row's
@@ -411,17 +417,18 @@ class MarkerView:
         if fitted is not None and fitted.shape[0] != n:
             raise MocapFormatError("scene", None, f"{where}.fitted: {fitted.shape[0]} frames for {n} times")
         fitted = None if fitted is None else z_up(fitted, up)
-        knots, knot_times = [], []
+        knot_list: list[np.ndarray] = []
+        time_list: list[np.ndarray] = []
         for k, kn in enumerate(panel.get("knots") or []):
             w = f"{where}.knots[{k}]"
             pts = np.asarray(_field(kn, "positions", w), dtype=float).reshape(-1, 3)
             kt = np.asarray(_field(kn, "times", w), dtype=float).reshape(-1)
             if len(kt) != len(pts):
                 raise MocapFormatError("scene", None, f"{w}: {len(kt)} times for {len(pts)} positions")
-            knots.append(z_up(pts, up))
-            knot_times.append(kt)
-        knots = np.concatenate(knots) if knots else np.zeros((0, 3))
-        knot_times = np.concatenate(knot_times) if knot_times else np.zeros(0)
+            knot_list.append(z_up(pts, up))
+            time_list.append(kt)
+        knots = np.concatenate(knot_list) if knot_list else np.zeros((0, 3))
+        knot_times = np.concatenate(time_list) if time_list else np.zeros(0)
         order = np.argsort(knot_times, kind="stable")
         self.knot_pos, self.knot_times = knots[order], knot_times[order]
         lim = _limits(np.concatenate([self.pos.reshape(-1, 3), knots]), pad=0.02)  # a small margin

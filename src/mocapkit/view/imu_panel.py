@@ -37,7 +37,7 @@ def is_compress_points(path: Path) -> bool:
     return tuple(c.strip().lower() for c in head.split(",")) == COMPRESS_POINTS_HEADER
 
 
-def points_of(signal, original_times: np.ndarray) -> "Points | None":
+def points_of(signal, original_times: np.ndarray) -> Points | None:
     """``signal`` as the segment points of a recording sampled at ``original_times``, when it is one:
     fewer samples, the same first and last time, every time one of the original's (``compress -o`` writes
     the kept samples' times as they were read); else ``None``."""
@@ -74,8 +74,8 @@ class Points:
 
 
 def read_packets(path: Path) -> tuple[dict[str, Points], list[str]]:
-    """The points of every stream of a ``.mkp`` file and the reader's losses (damaged packets are dropped by the reader and
-    the points after a lost packet are marked, so the decode never bridges a gap)."""
+    """The points of every stream of a ``.mkp`` file and the reader's losses (damaged packets are dropped by the reader
+    and the points after a lost packet are marked, so the decode never bridges a gap)."""
     from mocapkit.jobs.readers import read_mkp
 
     pf = read_mkp(path)

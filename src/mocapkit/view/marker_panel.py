@@ -4,6 +4,7 @@ evaluated at the marker file's times with their knots (the start of every piece 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -66,9 +67,9 @@ def fitted_positions(mk: Markers, signals: list[dict], where: str) -> tuple[np.n
                                        f"{t[0]:g}..{t[-1]:g} s: not a filter of this file")
             fitted[:, m, "xyz".index(ax)] = vals
             knot_times.setdefault(m, set()).update(float(p["t0"]) for p in s["pieces"][1:])
-    knots = []
-    for m, ts in sorted(knot_times.items()):
-        ts = np.array(sorted(ts))
+    knots: list[dict[str, Any]] = []
+    for m, tset in sorted(knot_times.items()):
+        ts = np.array(sorted(tset))
         idx = np.clip(np.searchsorted(t, ts - 1e-9), 0, n - 1)
         knots.append({"marker": m, "times": ts.tolist(),
                       "positions": [[None if not np.isfinite(v) else float(v) for v in fitted[i, m]] for i in idx]})

@@ -5,6 +5,7 @@ its decode (error per joint); a ``.mkp`` or points CSV after an IMU file is its 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -229,7 +230,9 @@ class _Builder:
             by_name = {s["name"]: k for k, s in enumerate(panel["sensors"])}
             for name in signals:
                 if name not in points:
-                    self.notes.append(f"{path.name}: no points of sensor {name} of {opath.name}; its decode is not drawn")
+                    self.notes.append(
+                        f"{path.name}: no points of sensor {name} of {opath.name}; its decode is not drawn"
+                    )
             for name, pts in points.items():
                 if name not in signals:
                     self.notes.append(f"{path.name}: sensor {name} is not in {opath.name}; not drawn")
@@ -257,7 +260,8 @@ class _Builder:
         from mocapkit.io.loaders import load_markers
 
         mk = load_markers(path)
-        fitted, knots = None, []
+        fitted: np.ndarray | None = None
+        knots: list[dict[str, Any]] = []
         if filter_json is not None:
             fitted, knots = fitted_positions(mk, read_filter_json(filter_json), str(filter_json))
         self.panels.append(marker_panel(self.pid(), path, mk, fitted, knots))

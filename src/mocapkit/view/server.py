@@ -58,10 +58,10 @@ def _content_type(name: str) -> str:
     return CONTENT_TYPES.get(Path(name).suffix.lower(), "text/plain; charset=utf-8")
 
 
-def routes(scene: dict, files: list[Path]) -> dict[str, tuple[str, object]]:
+def routes(scene: dict, files: list[Path]) -> dict[str, tuple[str, bytes | Path]]:
     """``{request path: (content type, bytes | Path)}``: everything the server will ever send."""
     root = static_dir()
-    table: dict[str, tuple[str, object]] = {}
+    table: dict[str, tuple[str, bytes | Path]] = {}
     for f in sorted(root.rglob("*")):
         if f.is_file() and not f.name.startswith("."):
             rel = f.relative_to(root).as_posix()
@@ -81,6 +81,7 @@ class _Handler(BaseHTTPRequestHandler):
     sys_version = ""
     protocol_version = "HTTP/1.1"
     timeout = 60  # an idle keep-alive connection is closed after a minute
+    server: ViewServer
 
     def _end_headers(self) -> None:
         """The shared headers, then the end of the head. A request that came with a body (never read) ends the

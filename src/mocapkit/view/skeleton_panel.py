@@ -16,7 +16,8 @@ GLTF_SUFFIXES = (".glb", ".gltf")
 
 def load_skeleton(path: Path, asf: Path | None, strict: bool, rate: float | None = None
                   ) -> tuple[Motion, float | None, float | None]:
-    """AMC files take ``asf`` and ``rate``. ``(motion, unit_cm or None when the file does not say, bound in cm or None)``."""
+    """AMC files take ``asf`` and ``rate``. ``(motion, unit_cm or None when the file does not say, bound in cm or
+    None)``."""
     from mocapkit.io.loaders import load_motion
 
     info = None

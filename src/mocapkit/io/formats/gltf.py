@@ -48,6 +48,7 @@ import math
 import re
 import struct
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pygltflib as g
@@ -156,11 +157,15 @@ def build_gltf(comp, unit_m: float = 0.01, name: str = "mocapkit", rotations: st
         xyzw = np.concatenate([q[:, 1:], q[:, :1]], axis=1)
         out = blob.add(quantize_rotations(xyzw) if rotations == "short" else xyzw, g.VEC4, minmax=True)
         samplers.append(g.AnimationSampler(input=times_accessor(c.times), output=out, interpolation="LINEAR"))
-        channels.append(g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="rotation")))
+        channels.append(
+            g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="rotation"))
+        )
     for j, c in sorted(comp.translations.items()):
         out = blob.add(c.values * unit_m, g.VEC3, minmax=True)
         samplers.append(g.AnimationSampler(input=times_accessor(c.times), output=out, interpolation="LINEAR"))
-        channels.append(g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="translation")))
+        channels.append(
+            g.AnimationChannel(sampler=len(samplers) - 1, target=g.AnimationChannelTarget(node=j, path="translation"))
+        )
     roots = [j for j in range(sk.n_joints) if sk.parents[j] < 0]
     extras = {EXTRAS_KEY: {
         "n_joints": sk.n_joints,
@@ -229,7 +234,7 @@ def write_gltf(path: str | Path, comp, unit_m: float = 0.01, name: str = "mocapk
 # buffer, strides within the spec's 4..252, numbers finite and at most MAX_ABS, counts bounded by the
 # buffer (so a hostile file cannot make the reader allocate or loop more than its own size).
 
-_N_COMP = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}
+_N_COMP: dict[Any, int] = {"SCALAR": 1, "VEC3": 3, "VEC4": 4}  # looked up with any JSON value
 _FLOAT = 5126
 _GLB_JSON, _GLB_BIN = 0x4E4F534A, 0x004E4942
 MAX_FILE_BYTES = 1 << 31  # a glTF file larger than 2 GiB is not a clip this reader decodes
@@ -252,7 +257,7 @@ def _finite_float(tok: str) -> float:
     return v
 
 
-def _json(raw: bytes) -> dict:
+def _json(raw: bytes | bytearray) -> dict:
     try:
         text = raw.decode("utf-8-sig")
         doc = json.loads(text, parse_constant=_reject_constant, parse_float=_finite_float)
@@ -267,7 +272,7 @@ def _json(raw: bytes) -> dict:
     return doc
 
 
-def _glb(data: bytes) -> tuple[dict, bytes]:
+def _glb(data: bytes | bytearray) -> tuple[dict, bytes | bytearray]:
     if len(data) < 20:
         raise _Bad("a GLB file needs a 12-byte header and a JSON chunk")
     _, version, length = struct.unpack_from("<4sII", data, 0)
@@ -275,7 +280,7 @@ def _glb(data: bytes) -> tuple[dict, bytes]:
         raise _Bad(f"GLB version {version} (only 2 is read)")
     if length > len(data):
         raise _Bad(f"the GLB header says {length} bytes but the file has {len(data)} (cut short?)")
-    chunks = []
+    chunks: list[tuple[int, bytes | bytearray]] = []
     off = 12
     while off + 8 <= length:
         clen, ctype = struct.unpack_from("<II", data, off)
@@ -291,7 +296,7 @@ def _glb(data: bytes) -> tuple[dict, bytes]:
     return _json(chunks[0][1]), blob
 
 
-def _load(path: Path, data: bytes | None = None) -> tuple[dict, bytes]:
+def _load(path: Path, data: bytes | bytearray | None = None) -> tuple[dict, bytes | bytearray]:
     """The JSON document and buffer 0 of ``path`` (or of its bytes ``data``, already read)."""
     from mocapkit.io.text.input import read_input
 
@@ -333,7 +338,7 @@ def _data_uri(uri: str, size: int) -> bytes:
     return raw[:size]
 
 
-def buffer_file_path(gltf: str | Path, uri: str) -> Path | None:
+def buffer_file_path(gltf: str | Path, uri: object) -> Path | None:
     """The file a ``.gltf``'s buffer ``uri`` names, resolved as :func:`read_gltf` resolves it, or ``None``
     for a data URI or a URI the reader refuses (so never reads): what an output must not overwrite."""
     if not isinstance(uri, str) or uri.startswith("data:"):
@@ -355,7 +360,9 @@ def gltf_buffer_files(path: str | Path) -> list[Path]:
         buffers = _json(p.read_bytes()).get("buffers")
     except (OSError, _Bad):
         return []
-    found = (buffer_file_path(p, b.get("uri")) for b in buffers if isinstance(b, dict)) if isinstance(buffers, list) else ()
+    found = (
+        (buffer_file_path(p, b.get("uri")) for b in buffers if isinstance(b, dict)) if isinstance(buffers, list) else ()
+    )
     return [f for f in found if f is not None and f.is_file()]
 
 
@@ -434,7 +441,7 @@ def _vec(v, n: int, what: str, default) -> np.ndarray:
 
 
 # componentType -> (little-endian dtype, name, divisor of a normalized value, signed)
-_COMPONENTS = {
+_COMPONENTS: dict[Any, tuple[str, str, float | None, bool]] = {
     5120: ("<i1", "BYTE", 127.0, True),
     5121: ("<u1", "UNSIGNED_BYTE", 255.0, False),
     5122: ("<i2", "SHORT", 32767.0, True),
@@ -447,7 +454,7 @@ _FLOAT_ONLY = frozenset({(_FLOAT, False)})
 _ROTATION_OUTPUT = frozenset({(_FLOAT, False), (5120, True), (5121, True), (5122, True), (5123, True)})
 
 
-def _accessor(doc: dict, blob: bytes, i, what: str, allowed=_FLOAT_ONLY) -> tuple[np.ndarray, float | None]:
+def _accessor(doc: dict, blob: bytes | bytearray, i, what: str, allowed=_FLOAT_ONLY) -> tuple[np.ndarray, float | None]:
     """Accessor ``i`` (SCALAR/VEC3/VEC4) as ``(count, n)`` float64 and the divisor of its normalized
     integers (``None`` for FLOAT). Its componentType and ``normalized`` flag must be one of ``allowed``
     (pairs); normalized integers are decoded as the spec says (``max(c/127, -1)``, ``c/255``,
@@ -518,7 +525,7 @@ def _sample(key_t: np.ndarray, key_v: np.ndarray, t: np.ndarray, rotation: bool)
     return key_v[k] + f[:, None] * (key_v[k + 1] - key_v[k])
 
 
-def read_gltf(path: str | Path, rate: float | None = None, data: bytes | None = None) -> Motion:
+def read_gltf(path: str | Path, rate: float | None = None, data: bytes | bytearray | None = None) -> Motion:
     """Decode the first animation of a glTF file to a full-rate skeletal :class:`Motion`.
 
     A file written by :func:`write_gltf` is decoded at its original frame times, in its original length
@@ -540,7 +547,9 @@ def read_gltf(path: str | Path, rate: float | None = None, data: bytes | None = 
         except (TypeError, ValueError):
             raise InvalidParameterError(f"rate must be a number of Hz, got {rate!r}") from None
         if not 1.0 / MAX_FRAME_TIME <= r <= 1.0 / MIN_FRAME_TIME:
-            raise InvalidParameterError(f"rate must be between {1 / MAX_FRAME_TIME:g} and {1 / MIN_FRAME_TIME:g} Hz, got {rate!r}")
+            raise InvalidParameterError(
+                f"rate must be between {1 / MAX_FRAME_TIME:g} and {1 / MIN_FRAME_TIME:g} Hz, got {rate!r}"
+            )
         rate = r
     doc, blob = _load(p, data)
     try:
@@ -639,9 +648,8 @@ def _check_channels_hold_motion(chans, offsets: np.ndarray, rot: np.ndarray, tra
                 raise _Bad(f"joint {names[j]!r}: the extras list {'' if listed else 'no '}{kind} channels "
                            f"({', '.join(ch) or 'none'}) but the animation has {'no ' if listed else 'a '}"
                            f"{kind} track for it")
-        if not any(c in ROTATION_CHANNELS for c in ch):
-            if not np.all(np.abs(rot[:, j, 0]) >= 1.0 - 1e-6):
-                raise _Bad(f"joint {names[j]!r} has no rotation channels in the extras but its rotation is animated")
+        if not any(c in ROTATION_CHANNELS for c in ch) and not np.all(np.abs(rot[:, j, 0]) >= 1.0 - 1e-6):
+            raise _Bad(f"joint {names[j]!r} has no rotation channels in the extras but its rotation is animated")
         for a, axis in enumerate("XYZ"):
             if f"{axis}position" not in ch:
                 dev = np.abs(trans[:, j, a] - offsets[j, a])
@@ -650,7 +658,7 @@ def _check_channels_hold_motion(chans, offsets: np.ndarray, rot: np.ndarray, tra
                                f"translation differs from its offset by up to {dev.max():g}")
 
 
-def _decode(doc: dict, blob: bytes, src: str, rate: float | None) -> Motion:
+def _decode(doc: dict, blob: bytes | bytearray, src: str, rate: float | None) -> Motion:
     nodes = _list(doc, "nodes")
     if not nodes:
         raise _Bad("no nodes: not a skeletal glTF file")

@@ -109,19 +109,19 @@ class ColumnOptions:
     time_unit: str | None = None
 
     def __post_init__(self) -> None:
-        q = self.quaternion_columns
-        if isinstance(q, str):
-            q = tuple(p.strip() for p in q.split(","))
-        if q is not None:
-            q = tuple(str(p).strip() for p in q)
+        given: str | tuple[str, ...] | None = self.quaternion_columns  # or "w,x,y,z" from the command line
+        if isinstance(given, str):
+            given = tuple(p.strip() for p in given.split(","))
+        if given is not None:
+            q = tuple(str(p).strip() for p in given)
             if len(q) != 4 or not all(q):
                 raise InvalidParameterError(
                     f"quaternion columns must be four names in w,x,y,z order, got {self.quaternion_columns!r}"
                 )
             object.__setattr__(self, "quaternion_columns", q)
         if self.time_unit is not None:
-            u = str(self.time_unit).strip().lower()
-            u = "counter" if u == "counter" else _UNIT_WORDS.get(u)
+            word = str(self.time_unit).strip().lower()
+            u = "counter" if word == "counter" else _UNIT_WORDS.get(word)
             if u is None:
                 raise InvalidParameterError(f"time unit must be one of s, ms, us, ns, counter; got {self.time_unit!r}")
             object.__setattr__(self, "time_unit", u)
@@ -382,8 +382,8 @@ def choose_time(names: Sequence[str], first_row: Sequence[str], unit_rows: Seque
             raise MocapFormatError(src, line, f"no column named {opts.time_column!r} (--time-column); "
                                    f"columns: {_listing(names)}")
         info = classify_time(names[i])
-        stated = _split_unit(_CHANNEL_SUFFIX_RE.sub("", norm(names[i])))[1]
-        unit = opts.time_unit or (info.unit if info else stated) or _unit_from_rows(i, unit_rows)
+        stated_unit = _split_unit(_CHANNEL_SUFFIX_RE.sub("", norm(names[i])))[1]
+        unit = opts.time_unit or (info.unit if info else stated_unit) or _unit_from_rows(i, unit_rows)
         note = None
         if unit is None and info is not None and info.kind == "counter":
             unit = "counter"
@@ -395,8 +395,8 @@ def choose_time(names: Sequence[str], first_row: Sequence[str], unit_rows: Seque
             return TimeColumn(i, names[i].strip(), unit, info.wrap, note, stated=False)
         return TimeColumn(i, names[i].strip(), unit, info.wrap if info else None, note)
 
-    found = [(i, classify_time(n)) for i, n in enumerate(names)]
-    found = [(i, t) for i, t in found if t is not None]
+    classified = [(i, classify_time(n)) for i, n in enumerate(names)]
+    found = [(i, t) for i, t in classified if t is not None]
     if mt_manager:
         for k, (i, t) in enumerate(found):
             if t.wrap == 2**32 and norm(names[i]) == "sampletimefine":
@@ -584,10 +584,11 @@ def find_orientations(names: Sequence[str], opts: ColumnOptions, src: str, line:
     one per sensor (``Sensor/...`` paths) raise an error naming them and ``--quaternion-columns``.
     """
     if opts.quaternion_columns is not None:
-        cols = [find_column(names, w) for w in opts.quaternion_columns]
-        if any(c is None for c in cols):
+        found = [find_column(names, w) for w in opts.quaternion_columns]
+        cols = [c for c in found if c is not None]
+        if len(cols) != len(found):
             return []
-        return [Orientation("quaternion", tuple(cols), tuple(names[c].strip() for c in cols),  # type: ignore[misc]
+        return [Orientation("quaternion", tuple(cols), tuple(names[c].strip() for c in cols),
                             extra={"order": "given"})]
     for finder in (lambda: _quaternion_sets(names, opts.scalar_last, src, line), lambda: _matrix_sets(names),
                    lambda: _euler_sets(names, xsens, src, line)):

@@ -69,8 +69,8 @@ from mocapkit.io.imu.columns import TIME_UNITS
 from mocapkit.io.imu.layout import Layout
 from mocapkit.io.imu.lines import check_line
 from mocapkit.io.imu.orientation import euler_note, matrices_to_quaternions, matrix_note, quaternions_from_euler
-from mocapkit.io.text.numbers import CUT_ENDINGS, MAX_ABS, NUMBER_RE, parse_number
 from mocapkit.io.text.input import cut_cell, short_value_note
+from mocapkit.io.text.numbers import CUT_ENDINGS, MAX_ABS, NUMBER_RE, parse_number
 
 __all__ = ["COUNTER_LIMIT", "MAX_BLANK_LINES", "MIN_STEP", "PLAUSIBLE_RATE", "TIME_LIMIT", "RowReader"]
 
@@ -334,7 +334,7 @@ class RowReader:
         texts = [fields[c].strip().strip('"') for c in o.cols]
         if o.missing_rows == "drop" and any(not t for t in texts):
             return None
-        out = [self._number(text, ln, name, MAX_ABS) for text, name in zip(texts, o.names)]
+        out = [self._number(text, ln, name, MAX_ABS) for text, name in zip(texts, o.names, strict=False)]
         if o.kind == "quaternion" and all(v * v == 0.0 for v in out):
             raise MocapFormatError(
                 self.src, ln, f"zero-norm quaternion ({', '.join(o.names)} = {', '.join(repr(v) for v in out)})"
@@ -675,7 +675,7 @@ class RowReader:
         chunk = 1 << 20
         for i in range(0, len(c) - 1, chunk):
             vals, counts = np.unique(np.diff(c[i: i + chunk + 1]), return_counts=True)
-            for v, k in zip(vals.tolist(), counts.tolist()):
+            for v, k in zip(vals.tolist(), counts.tolist(), strict=True):
                 tally[int(v)] += int(k)
         return min(tally, key=lambda s: (-tally[s], s)) if tally else 1
 

@@ -197,7 +197,7 @@ def _read(blocks: Iterator[Block], src: str, rate: float | None, name: str, opts
         reader.feed_block(b.text, b.first_line, b.n_lines, b.final, b.terminated)
     times, per_sensor, warnings = reader.finish()
     out: dict[str, Signal] = {}
-    for o, (rows, q, how), dropped in zip(lay.sensors, per_sensor, reader.dropped):
+    for o, (rows, q, how), dropped in zip(lay.sensors, per_sensor, reader.dropped, strict=False):
         sig_name = o.sensor if o.sensor is not None else name
         notes = list(lay.warnings) + warnings
         if dropped:
@@ -558,7 +558,7 @@ def write_signal_csv(path: str | Path, signal_times: Sequence[float] | np.ndarra
     if not (np.all(np.abs(t) <= MAX_ABS) and np.all(np.abs(v) <= MAX_ABS)):
         raise InvalidSignalError(f"cannot write values beyond ±{MAX_ABS:g} (the readers refuse them)")
     parts = [",".join(header), "\n"]
-    for ti, row in zip(t.tolist(), v.tolist()):
+    for ti, row in zip(t.tolist(), v.tolist(), strict=True):
         parts.append(format_row(ti, row))
         parts.append("\n")
     atomic_write_text(path, "".join(parts))

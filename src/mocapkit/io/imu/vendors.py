@@ -31,8 +31,7 @@ import re
 from collections.abc import Sequence
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.imu.columns import (ColumnOptions, Orientation, find_orientations, norm, parse_rate,
-                                     split_fields)
+from mocapkit.io.imu.columns import ColumnOptions, Orientation, find_orientations, norm, parse_rate, split_fields
 
 __all__ = ["apdm7_columns", "is_apdm7", "is_optitrack", "optitrack_columns", "vendor_label"]
 

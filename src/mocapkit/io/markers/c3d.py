@@ -48,6 +48,7 @@ import math
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -123,23 +124,23 @@ class C3DLayout:
         return None if p is None else _decode(p, self.processor)
 
 
-def _i8(b: bytes, i: int) -> int:
+def _i8(b: bytes | bytearray, i: int) -> int:
     v = b[i]
     return v - 256 if v > 127 else v
 
 
-def _u16(b: bytes, i: int) -> int:
+def _u16(b: bytes | bytearray, i: int) -> int:
     return b[i] | (b[i + 1] << 8)
 
 
-def _dec_float(b4: bytes) -> float:
+def _dec_float(b4: bytes | bytearray) -> float:
     """A DEC (VAX F) float stored in 4 bytes, as ezc3d converts it."""
     hi = b4[1]
     tp = bytes([b4[2], b4[3], b4[0], hi - 1 if hi != 0 else hi])
     return struct.unpack("<f", tp)[0]
 
 
-def _float(b: bytes, i: int, processor: str) -> float:
+def _float(b: bytes | bytearray, i: int, processor: str) -> float:
     chunk = b[i:i + 4]
     if processor == "dec":
         return _dec_float(chunk)
@@ -164,13 +165,13 @@ def _decode(p: _Param, processor: str) -> list:
     return [_float(p.raw, 4 * k, processor) for k in range(n)]
 
 
-def _check_name(raw: bytes) -> str:
+def _check_name(raw: bytes | bytearray) -> str:
     """The name ezc3d will see: the bytes up to the first NUL (any other byte is accepted, as ezc3d
     does: QTM writes names with spaces such as ``Uncropped Measurement Length``)."""
     return raw.split(b"\0", 1)[0].decode("latin-1")
 
 
-def _walk_parameters(data: bytes, start: int, end: int, processor: str) -> dict[int, _Group]:
+def _walk_parameters(data: bytes | bytearray, start: int, end: int, processor: str) -> dict[int, _Group]:
     groups: dict[int, _Group] = {}
     pos = start + 4
     while True:
@@ -286,7 +287,7 @@ def _series_len(groups: dict[str, dict[str, _Param]], group: str, name: str, pro
         k += 1
 
 
-def check_c3d_structure(data: bytes) -> C3DLayout:
+def check_c3d_structure(data: bytes | bytearray) -> C3DLayout:
     """Check the structure of a C3D file held in ``data``; raise ``ValueError`` naming the problem.
 
     This is the pre-check :func:`read_c3d` runs before handing a file to ezc3d.
@@ -297,7 +298,7 @@ def check_c3d_structure(data: bytes) -> C3DLayout:
         raise ValueError(str(exc)) from None
 
 
-def _check(data: bytes) -> C3DLayout:
+def _check(data: bytes | bytearray) -> C3DLayout:
     size = len(data)
     if size < _BLOCK:
         raise _Bad(f"too short for a C3D file ({size} bytes; the header alone is 512)")
@@ -323,7 +324,7 @@ def _check(data: bytes) -> C3DLayout:
         raise _Bad(f"the parameter section ({nblocks} blocks from block {pblock}) runs past the end "
                    f"of the file ({size} bytes)")
 
-    hdr = {
+    hdr: dict[str, Any] = {
         "points": _u16(data, 2),
         "analog_measurements": _u16(data, 4),
         "first_frame": _u16(data, 6),
@@ -386,12 +387,10 @@ def _check(data: bytes) -> C3DLayout:
         if not math.isfinite(hdr["scale"]) or (hdr["scale"] < 0) != is_float:
             raise _Bad(f"the header scale factor ({hdr['scale']!r}) and POINT:SCALE ({pscales[0]!r}) "
                        "disagree on the storage format (float or integer)")
-        point_scale = pscales[0]
     else:
         if not math.isfinite(hdr["scale"]):
             raise _Bad("the header scale factor is not finite")
         is_float = hdr["scale"] < 0
-        point_scale = hdr["scale"]
 
     # analog: ezc3d recomputes samples per frame from ANALOG:RATE / POINT:RATE
     analog_group = groups.get("ANALOG", {})
@@ -445,9 +444,8 @@ def _check(data: bytes) -> C3DLayout:
     if frames_p is not None:
         fv = _first(groups, "POINT", "FRAMES", processor, (2,))
         pframes = fv[0] & 0xFFFF if (len(fv) > 1 or fv[0] < 0) else fv[0]
-    if last0 + 1 < first0:
-        if pframes == 0:
-            raise _Bad(f"the header's last frame ({last}) is before its first frame ({first})")
+    if last0 + 1 < first0 and pframes == 0:
+        raise _Bad(f"the header's last frame ({last}) is before its first frame ({first})")
     h_frames = last0 - first0 + 1
     if pframes:
         if pframes != h_frames and last != 0xFFFF:  # ezc3d follows POINT:FRAMES

@@ -76,9 +76,15 @@ import numpy as np
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError
 from mocapkit.io.atomic import atomic_write_text
+from mocapkit.io.text.input import (
+    MAX_HEADER_LINE,
+    check_cells_budget,
+    final_line_verdict,
+    is_regular,
+    read_text,
+    report_final_line,
+)
 from mocapkit.io.text.numbers import parse_number
-from mocapkit.io.text.input import (MAX_HEADER_LINE, check_cells_budget, final_line_verdict, is_regular, read_text,
-                                  report_final_line)
 from mocapkit.markers import Markers, make_unique_labels
 from mocapkit.motion import Signal
 
@@ -260,8 +266,12 @@ def read_trc(path: str | Path) -> Markers:
         if len(cells) > width:
             extra = cells[width:]
             if any(c.strip() for c in extra):
-                raise MocapFormatError(src, i + 1, f"expected {width} {'tab' if delim == chr(9) else 'comma'}-separated cells (Frame#, Time and "
-                                       f"{m} x 3 coordinates), found {len(cells)}")
+                raise MocapFormatError(
+                    src,
+                    i + 1,
+                    f"expected {width} {'tab' if delim == chr(9) else 'comma'}-separated cells (Frame#, Time and "
+                    f"{m} x 3 coordinates), found {len(cells)}",
+                )
             cells = cells[:width]
         elif len(cells) < width:
             if len(cells) < 2:
@@ -328,7 +338,7 @@ def write_trc(markers: Markers, path: str | Path, *, decimals: int = 6) -> None:
         "",
     ]
     flat = markers.positions.reshape(n, 3 * m)
-    for f, t, row in zip(frames, markers.times.tolist(), flat.tolist()):
+    for f, t, row in zip(frames, markers.times.tolist(), flat.tolist(), strict=True):
         out.append("\t".join([str(f), repr(t)] + [_fmt(v, decimals) for v in row]))
     atomic_write_text(path, "\n".join(out) + "\n")
 
@@ -578,7 +588,7 @@ def write_table(signal: Signal, path: str | Path, *, decimals: int | None = None
     if deg is not None:
         out.append(f"inDegrees={'yes' if deg else 'no'}")
     out += ["endheader", "\t".join(["time"] + labels)]
-    for t, row in zip(signal.times.tolist(), signal.values.tolist()):
+    for t, row in zip(signal.times.tolist(), signal.values.tolist(), strict=True):
         out.append("\t".join([repr(t)] + [_fmt(v, decimals) for v in row]))
     atomic_write_text(path, "\n".join(out) + "\n")
 

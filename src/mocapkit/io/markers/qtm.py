@@ -79,8 +79,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.text.numbers import MAX_ABS, parse_number
 from mocapkit.io.text.input import MAX_HEADER_LINE, decode_text, final_line_verdict, read_input, report_final_line
+from mocapkit.io.text.numbers import MAX_ABS, parse_number
 from mocapkit.markers import Markers, make_unique_labels
 
 __all__ = ["read_qtm_tsv", "read_qtm_tsv_text", "REQUIRED_FIELDS"]
@@ -159,9 +159,9 @@ class _Parser:
             if len(line) > MAX_HEADER_LINE:
                 raise self.err(i, f"header line {key} is {len(line):,} characters long (more than "
                                   f"{MAX_HEADER_LINE:,}): not a QTM export")
-            values = [f.strip() for f in fields[1:]]
+            cells = [f.strip() for f in fields[1:]]
             if key == "EVENT":
-                vals = [v for v in values if v] if len(values) > 3 else values
+                vals = [v for v in cells if v] if len(cells) > 3 else cells
                 if len(vals) < 3:
                     raise self.err(i, f"EVENT needs a name, a frame and a time, got {len(vals)} values")
                 if not _INT_RE.match(vals[1]):
@@ -172,7 +172,7 @@ class _Parser:
             else:
                 if key in header:
                     raise self.err(i, f"header field {key} is repeated (first on line {header_lines[key] + 1})")
-                header[key] = values
+                header[key] = cells
                 header_lines[key] = i
             i += 1
         end_header = i
@@ -238,11 +238,11 @@ class _Parser:
 
         names = list(header["MARKER_NAMES"])
         if len(names) > n_markers:
-            extra = [v for v in names[n_markers:] if v]
-            if extra:
+            surplus = [v for v in names[n_markers:] if v]
+            if surplus:
                 raise self.err(header_lines["MARKER_NAMES"],
                                f"MARKER_NAMES has {len([v for v in names if v])} names but NO_OF_MARKERS is "
-                               f"{n_markers} (first extra name: {_short(extra[0])})")
+                               f"{n_markers} (first extra name: {_short(surplus[0])})")
             names = names[:n_markers]
         elif len(names) < n_markers:
             meta["marker_names_padded"] = n_markers - len(names)
@@ -353,7 +353,9 @@ class _Parser:
             row = values[j]
             gap = np.isnan(row)
             if gap[:k0].any():
-                raise self.err(first_data + j, f"{field_names[int(np.flatnonzero(gap[:k0])[0])]}: empty value is not a number")
+                raise self.err(
+                    first_data + j, f"{field_names[int(np.flatnonzero(gap[:k0])[0])]}: empty value is not a number"
+                )
             trip = gap[k0:].reshape(n_markers, 3)
             partial = np.flatnonzero(trip.any(axis=1) & ~trip.all(axis=1))
             if partial.size:

@@ -30,8 +30,9 @@ whose last line has another number of cells than the line before, or whose last 
 has fewer decimals than the same column on the rows before it (cut in the middle of a number), is
 an error naming the line: the file was cut short. Nexus writes 6 significant digits, so the decimals
 of a column vary and a cut inside the last value often cannot be told: then the row is read with a
-warning (``meta["warnings"]`` and :class:`~mocapkit.errors.MocapWarning`). Rows that, padded with gaps, would need far more values than the file holds are refused
-before allocation; pipes and devices are read in bounded chunks (:mod:`mocapkit.io.text.input`).
+warning (``meta["warnings"]`` and :class:`~mocapkit.errors.MocapWarning`). Rows that, padded with gaps, would need far
+more values than the file holds are refused before allocation; pipes and devices are read in bounded chunks
+(:mod:`mocapkit.io.text.input`).
 """
 
 from __future__ import annotations
@@ -42,8 +43,8 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.text.numbers import NUMBER_RE, parse_number
 from mocapkit.io.text.input import check_cells_budget, final_line_verdict, read_text, report_final_line
+from mocapkit.io.text.numbers import NUMBER_RE, parse_number
 from mocapkit.markers import Markers, make_unique_labels
 
 #: Range accepted for a block's rate (Hz).
@@ -160,9 +161,10 @@ def _parse_block(b: _Block, src: str, cut_line: int | None = None, file_bytes: i
                                        f"{ln_c}, found {len(cells)}")
             cells = cells[:width]
         if line == cut_line:
-            verdict, j = final_line_verdict([c for _, c in rows[max(0, r - 20):r]], cells)
-            report_final_line(src, line, verdict, j, field[j] if j is not None and j < width else "the last value",
-                              cells[j] if j is not None else "", warnings)
+            verdict, col = final_line_verdict([c for _, c in rows[max(0, r - 20):r]], cells)
+            report_final_line(src, line, verdict, col,
+                              field[col] if col is not None and col < width else "the last value",
+                              cells[col] if col is not None else "", warnings)
         for j in range(width):
             c = cells[j] if j < len(cells) else ""
             if not c:
@@ -249,7 +251,7 @@ def read_vicon_csv(path: str | Path) -> Markers:
     dev = by_name.get("Devices")
     if dev is not None:
         d_rate, d_names, d_comps, d_units, d_vals, d_lines = _parse_block(dev, src, cut_line, size, read_warnings)
-        d_labels, d_fixes = make_unique_labels([f"{nm} {c}".strip() for nm, c in zip(d_names, d_comps)],
+        d_labels, d_fixes = make_unique_labels([f"{nm} {c}".strip() for nm, c in zip(d_names, d_comps, strict=False)],
                                                len(d_comps), prefix="analog")
         meta["analog_label_fixes"] = d_fixes
         analog = {"labels": d_labels, "rate": d_rate, "values": d_vals[:, 2:], "units": tuple(d_units),

@@ -47,7 +47,7 @@ def write_markers_csv(markers: Markers, path: str | Path) -> None:
     csv.writer(buf, lineterminator="\n").writerow(marker_csv_header(markers))
     flat = markers.positions.reshape(markers.n_frames, -1)
     rows = [buf.getvalue()]
-    for t, row in zip(markers.times.tolist(), flat.tolist()):
+    for t, row in zip(markers.times.tolist(), flat.tolist(), strict=True):
         rows.append(",".join([repr(t)] + [repr(v) for v in row]))
         rows.append("\n")
     atomic_write_text(path, "".join(rows))
@@ -119,7 +119,7 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str | N
     for j in range(1, len(header), 3):
         trio = header[j:j + 3]
         stems = []
-        for h, ax in zip(trio, _AXES):
+        for h, ax in zip(trio, _AXES, strict=False):
             if not h.lower().endswith("_" + ax):
                 raise MocapFormatError(src, 1, f"column {j + _AXES.index(ax) + 1} ({h!r}) should end in '_{ax}'")
             stems.append(h[:-2])
@@ -138,9 +138,9 @@ def read_markers_csv(path: str | Path, rate: float | None = None, units: str | N
                    if i == last and not ends_with_newline else "")
             raise MocapFormatError(src, i + 2, f"expected {ncol} comma-separated values, found {len(cells)}{cut}")
         if i == last and not ends_with_newline:
-            verdict, j = final_line_verdict([r.split(",") for r in lines[max(1, i - 19):i + 1]], cells)
-            report_final_line(src, i + 2, verdict, j, fields[j] if j is not None else "the last value",
-                              cells[j] if j is not None else "", warnings)
+            verdict, col = final_line_verdict([r.split(",") for r in lines[max(1, i - 19):i + 1]], cells)
+            report_final_line(src, i + 2, verdict, col, fields[col] if col is not None else "the last value",
+                              cells[col] if col is not None else "", warnings)
         for j, c in enumerate(cells):
             values[i, j] = parse_number(c.strip(), src, i + 2, fields[j], missing=_MISSING)
     if values.shape[0] == 0:

@@ -151,13 +151,13 @@ def _short(text: str, limit: int = 60) -> str:
     return repr(text if len(text) <= limit else text[: limit - 3] + "...")
 
 
-def _read_bytes(path: str | Path) -> tuple[str, bytes]:
+def _read_bytes(path: str | Path) -> tuple[str, bytes | bytearray]:
     from mocapkit.io.text.input import read_input
 
     return str(Path(path)), read_input(path, "text file")
 
 
-def _decode(data: bytes) -> str:
+def _decode(data: bytes | bytearray) -> str:
     """Bytes to text; undecodable bytes become lone surrogates, reported only where they matter."""
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
@@ -319,9 +319,8 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
                 version = " ".join(toks[1:]) or None
             elif kw == "name":
                 name = " ".join(toks[1:]) or None
-            elif kw in ("units", "documentation", "root", "bonedata", "hierarchy") and len(toks) > 1:
-                if kw != "documentation":
-                    raise MocapFormatError(src, ln, f"unexpected {_short(' '.join(toks[1:]))} after :{kw}")
+            elif kw in ("units", "root", "bonedata", "hierarchy") and len(toks) > 1:
+                raise MocapFormatError(src, ln, f"unexpected {_short(' '.join(toks[1:]))} after :{kw}")
             continue
         if section is None:
             raise MocapFormatError(src, ln, f"{_short(body.strip())} before the first ':' section keyword")
@@ -722,7 +721,11 @@ def _parse_amc(text: str, src: str, sk: Skeleton, rate: float, state: dict) -> M
     last_line = len(lines)  # a line cut short can only be the last one, when there is no final newline
 
     def cut(ln: int | None) -> str:
-        return "" if final_newline or ln != last_line else " (the file ends on this line without a final newline: cut short?)"
+        return (
+            ""
+            if final_newline or ln != last_line
+            else " (the file ends on this line without a final newline: cut short?)"
+        )
 
     def close_frame(at_end: bool = False) -> None:
         if not required <= seen:
@@ -1146,7 +1149,9 @@ def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton,
               "limit_deg": limit}
     if per_joint[worst] > limit:
         over = {n: int((r > limit).sum()) for n, r in residuals.items() if (r > limit).any()}
-        others = ", ".join(f"{n} ({k} frame{'s' if k > 1 else ''})" for n, k in sorted(over.items(), key=lambda x: -x[1]))
+        others = ", ".join(
+            f"{n} ({k} frame{'s' if k > 1 else ''})" for n, k in sorted(over.items(), key=lambda x: -x[1])
+        )
         raise InvalidSignalError(
             f"joint {worst!r} frame {frame + 1}: the rotation is {per_joint[worst]:.3g} deg away from the closest one "
             f"its dofs ({dof_text[worst]}) can express (allowed {limit:g} deg); over the limit: {others}"

@@ -41,15 +41,17 @@ from __future__ import annotations
 import io
 import re
 import warnings
+from itertools import pairwise
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError, MocapWarning
 from mocapkit.io.atomic import atomic_write_text
-from mocapkit.io.text.numbers import MAX_ABS, NUMBER_RE, looks_cut, parse_number
 from mocapkit.io.text.input import read_input
+from mocapkit.io.text.numbers import MAX_ABS, NUMBER_RE, looks_cut, parse_number
 from mocapkit.quat import to_scipy
 from mocapkit.skeleton import MAX_JOINT_FRAMES, POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
@@ -149,7 +151,9 @@ def _parse_hierarchy(tk: _Tokens) -> dict:
             elif up == "CHANNELS":
                 ntok, nline = tk.next()
                 if not _UINT.fullmatch(ntok):
-                    raise MocapFormatError(path, nline, f"CHANNELS count {ntok[:40]!r} of joint {name!r} is not an integer")
+                    raise MocapFormatError(
+                        path, nline, f"CHANNELS count {ntok[:40]!r} of joint {name!r} is not an integer"
+                    )
                 n = int(ntok)
                 if not 0 <= n <= 6:
                     raise MocapFormatError(path, nline, f"CHANNELS count {n} of joint {name!r} is not between 0 and 6")
@@ -159,7 +163,10 @@ def _parse_hierarchy(tk: _Tokens) -> dict:
                     canon = _CANON.get(c.lower())
                     if canon is None:
                         raise MocapFormatError(
-                            path, cl, f"unknown channel {c[:40]!r} of joint {name!r} (expected one of {', '.join(_VALID_CHANNELS)})"
+                            path,
+                            cl,
+                            f"unknown channel {c[:40]!r} of joint {name!r} "
+                            f"(expected one of {', '.join(_VALID_CHANNELS)})",
                         )
                     if canon in chans:
                         raise MocapFormatError(path, cl, f"channel {canon} repeated in joint {name!r}")
@@ -276,11 +283,13 @@ def _strict_rows(data: str, first: int, skel: Skeleton, path: str, frame0: int =
         if not _NUMERIC_LINE.match(s):
             c = next(i for i, t in enumerate(toks) if not _NUMERIC_LINE.match(t))
             raise MocapFormatError(path, lineno, f"{_field(skel, k + 1, c)}: {toks[c][:30]!r} is not a number")
-        nums = []
-        for c, t in enumerate(toks):
+        nums: list[str] = []
+        for t in toks:
             found = NUMBER_RE.findall(t)
             if "".join(found) != t:
-                raise MocapFormatError(path, lineno, f"{_field(skel, k + 1, len(nums))}: cannot read the numbers in {t[:40]!r}")
+                raise MocapFormatError(
+                    path, lineno, f"{_field(skel, k + 1, len(nums))}: cannot read the numbers in {t[:40]!r}"
+                )
             nums.extend(found)
         if len(nums) != C:
             raise MocapFormatError(path, lineno, f"expected {C} channel values (from the hierarchy), got {len(nums)}")
@@ -450,7 +459,7 @@ def motion_from_channels(skel: Skeleton, values: np.ndarray, frame_time: float, 
     # NaNs included, no sign canonicalisation) without its per-element cost. Quaternions are
     # (x, y, z, w) here as in scipy; 0.0 stands for a component that is +0.0 in every frame.
     for order, (joints, cols) in groups.items():
-        if any(a == b for a, b in zip(order, order[1:])):
+        if any(a == b for a, b in pairwise(order)):
             Rotation.from_euler(order, values[:, cols[0]], degrees=True)  # raises scipy's error, as before
         half = np.asarray(values[:, cols], dtype=np.float64)  # (N, joints, len(order)), a new array
         np.deg2rad(half, out=half)
@@ -458,10 +467,10 @@ def motion_from_channels(skel: Skeleton, values: np.ndarray, frame_time: float, 
         with np.errstate(invalid="ignore"):  # cos/sin of ±inf give NaN quietly, as in scipy
             cos = np.cos(half)
             sin = np.sin(half, out=half)
-        p = [0.0, 0.0, 0.0, cos[..., 0]]
+        p: list[Any] = [0.0, 0.0, 0.0, cos[..., 0]]  # floats and (N,) arrays
         p[axis[order[0]]] = sin[..., 0]
         for i in range(1, len(order)):
-            e = [0.0, 0.0, 0.0, cos[..., i]]
+            e: list[Any] = [0.0, 0.0, 0.0, cos[..., i]]
             e[axis[order[i]]] = sin[..., i]
             cross = [p[1] * e[2] - p[2] * e[1], p[2] * e[0] - p[0] * e[2], p[0] * e[1] - p[1] * e[0]]
             r = [p[3] * e[k] + e[3] * p[k] + cross[k] for k in range(3)]
@@ -516,6 +525,7 @@ def channels_from_motion(motion: Motion) -> np.ndarray:
             if c in POSITION_CHANNELS:
                 cols.append(motion.translations[:, j, "XYZ".index(c[0])])
             else:
+                assert eul is not None  # a rotation channel gives the joint a rotation order
                 cols.append(eul[:, k])
                 k += 1
     if not cols:
@@ -529,18 +539,24 @@ _BAD_NAME = re.compile(r"[\s{}]")
 def _check_writable(motion: Motion, vals: np.ndarray) -> None:
     """Refuse what would write a BVH file that cannot be read back as the same motion."""
     skel = motion.skeleton
-    for j, n in enumerate(skel.names):
+    for n in skel.names:
         if not n or _BAD_NAME.search(n):
             raise InvalidSignalError(f"joint name {n!r} cannot be written to BVH (empty, or holds blanks or braces)")
     bad = ~(np.abs(skel.offsets) <= MAX_ABS)
     if bad.any():
         j = int(np.flatnonzero(bad.any(axis=1))[0])
-        raise InvalidSignalError(f"OFFSET of joint {skel.names[j]!r} is not finite or too large: {skel.offsets[j].tolist()}")
+        raise InvalidSignalError(
+            f"OFFSET of joint {skel.names[j]!r} is not finite or too large: {skel.offsets[j].tolist()}"
+        )
     for j, off in skel.end_sites:
         if not all(abs(float(x)) <= MAX_ABS for x in off):
-            raise InvalidSignalError(f"End Site OFFSET of joint {skel.names[j]!r} is not finite or too large: {list(off)}")
+            raise InvalidSignalError(
+                f"End Site OFFSET of joint {skel.names[j]!r} is not finite or too large: {list(off)}"
+            )
     if vals.shape != (motion.n_frames, skel.n_channels):
-        raise InvalidSignalError(f"channel values have shape {vals.shape}, expected {(motion.n_frames, skel.n_channels)}")
+        raise InvalidSignalError(
+            f"channel values have shape {vals.shape}, expected {(motion.n_frames, skel.n_channels)}"
+        )
     bad = ~(np.abs(vals) <= MAX_ABS)
     if bad.any():
         r, c = (int(x[0]) for x in np.nonzero(bad))
@@ -563,7 +579,11 @@ def write_bvh(path: str | Path, motion: Motion, precision: int = 6, use_channel_
     if isinstance(precision, bool) or not isinstance(precision, (int, np.integer)) or not 0 <= precision <= 17:
         raise InvalidParameterError(f"precision must be an integer number of decimals from 0 to 17, got {precision!r}")
     skel = motion.skeleton
-    vals = motion.channel_values if (use_channel_values and motion.channel_values is not None) else channels_from_motion(motion)
+    vals = (
+        motion.channel_values
+        if (use_channel_values and motion.channel_values is not None)
+        else channels_from_motion(motion)
+    )
     vals = np.asarray(vals, dtype=np.float64).reshape(motion.n_frames, -1)
     _check_writable(motion, vals)
     out = ["HIERARCHY"]

@@ -25,6 +25,7 @@ import math
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from itertools import pairwise
 from pathlib import Path
 
 import numpy as np
@@ -292,7 +293,7 @@ def read_haca_labels(
         raise MocapFormatError(
             src, last_ln, f"the last segment ends at frame {total} but the take has {n_frames} frames"
         )
-    for ln, _, b, c in rows[:-1]:
+    for ln, _, _b, c in rows[:-1]:
         if c >= total:
             raise MocapFormatError(
                 src, ln, f"interval end c = {c} reaches the end of the take ({total} frames)"
@@ -416,7 +417,7 @@ def read_reference(path: str | Path, n_frames: int, rate_hz: float = 120.0) -> R
     if not haca:  # integer labels: HACA when every segment line is "label a b c" ending the take at its last b
         seg = rows[1:] if rows and not _is_haca_row(rows[0]) else rows
         ends = [int(r[2]) for r in seg if _is_haca_row(r)]
-        haca = (len(seg) > 0 and len(ends) == len(seg) and all(x < y for x, y in zip(ends, ends[1:]))
+        haca = (len(seg) > 0 and len(ends) == len(seg) and all(x < y for x, y in pairwise(ends))
                 and ends[-1] == n_frames)
     if haca:
         return read_haca_labels(path, n_frames=n_frames, rate_hz=rate)

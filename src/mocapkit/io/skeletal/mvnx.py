@@ -70,9 +70,9 @@ from xml.parsers import expat
 import numpy as np
 
 from mocapkit.errors import InvalidSignalError, MocapFormatError
-from mocapkit.io.text.numbers import MAX_ABS, parse_number
 from mocapkit.io.text import input as textinput
 from mocapkit.io.text.input import is_regular
+from mocapkit.io.text.numbers import MAX_ABS, parse_number
 from mocapkit.quat import multiply
 from mocapkit.skeleton import Motion, Skeleton, quat_to_matrix
 
@@ -223,7 +223,9 @@ class _Reader:
             if not label:
                 self.fail("<segment> without a label")
             if label in self.seg_index:
-                self.fail(f"segment {label!r} is defined twice (first on line {self.segments[self.seg_index[label]]['line']})")
+                self.fail(
+                    f"segment {label!r} is defined twice (first on line {self.segments[self.seg_index[label]]['line']})"
+                )
             if self.frames_seen:
                 self.fail(f"segment {label!r} after the frames")
             self.seg_index[label] = len(self.segments)
@@ -281,7 +283,9 @@ class _Reader:
         if path == _POINT and self.point is not None:
             seg = self.segments[-1]
             if self.point["pos"] is None:
-                self.fail(f"point {self.point['label']!r} of segment {seg['label']!r} has no <pos_b>", self.point["line"])
+                self.fail(
+                    f"point {self.point['label']!r} of segment {seg['label']!r} has no <pos_b>", self.point["line"]
+                )
             seg["points"].setdefault(self.point["label"], self.point["pos"])
             self.point = None
         elif path == _JOINT and self.joint is not None:
@@ -304,16 +308,19 @@ class _Reader:
 
     def _text_element(self, tag: str, text: str, line: int) -> None:
         if tag == "pos_b":
+            assert self.point is not None  # _wants_text collects it inside a <point> only
             v = self.numbers(text, f"<pos_b> of point {self.point['label']!r}", line)
             if v.size != 3:
                 self.fail(f"<pos_b> of point {self.point['label']!r}: expected 3 numbers, got {v.size}", line)
             self.point["pos"] = v
         elif tag in ("connector1", "connector2"):
+            assert self.joint is not None  # inside a <joint> only
             seg, sep, pt = text.strip().partition("/")
             if not sep or not seg or not pt:
                 self.fail(f"joint {self.joint['label']!r}: <{tag}> {text.strip()[:60]!r} is not 'Segment/point'", line)
             self.joint[tag] = (seg, pt, line)
         else:
+            assert self.frame is not None  # inside a <frame> only
             S = len(self.segments)
             k = 4 if tag == "orientation" else 3
             v = self.numbers(text, f"<{tag}>", line, k)
@@ -345,7 +352,9 @@ def read_mvnx(path: str | Path, gap_tolerance_m: float = GAP_TOLERANCE_M) -> Mot
         with open(path, "rb") as fh:
             parser.ParseFile(fh if is_regular(path) else _Bounded(fh, src, textinput.MAX_STREAM_BYTES))
     except expat.ExpatError as e:
-        raise MocapFormatError(src, e.lineno, f"malformed XML: {expat.ErrorString(e.code)} (column {e.offset + 1})") from None
+        raise MocapFormatError(
+            src, e.lineno, f"malformed XML: {expat.ErrorString(e.code)} (column {e.offset + 1})"
+        ) from None
     except (FileNotFoundError, IsADirectoryError, PermissionError) as e:
         raise MocapFormatError(src, None, e.strerror or str(e)) from None
     except (LookupError, UnicodeError, ValueError) as e:  # e.g. an unknown encoding in the XML declaration
@@ -374,7 +383,9 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
         (ps, pp, l1), (cs, cp, l2) = jt["connector1"], jt["connector2"]
         for seg, pt, ln in ((ps, pp, l1), (cs, cp, l2)):
             if seg not in r.seg_index:
-                raise MocapFormatError(src, ln, f"joint {jt['label']!r}: no segment {seg!r} (segments: {', '.join(labels[:6])}, …)")
+                raise MocapFormatError(
+                    src, ln, f"joint {jt['label']!r}: no segment {seg!r} (segments: {', '.join(labels[:6])}, …)"
+                )
             if pt not in segs[r.seg_index[seg]]["points"]:
                 raise MocapFormatError(src, ln, f"joint {jt['label']!r}: segment {seg!r} has no point {pt!r}")
         p, c = r.seg_index[ps], r.seg_index[cs]
@@ -420,7 +431,7 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
     trans = np.empty((N, S, 3))
     gaps: dict[str, float] = {}
     animated: list[str] = []
-    channels = []
+    channels: list[tuple[str, ...]] = []
     offsets = np.zeros((S, 3))
     for k, s in enumerate(order):
         p = parent[s]
@@ -445,11 +456,11 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
             trans[:, k] = offset[s]
             channels.append(JOINT_CHANNELS)
     if animated:
-        worst = max(animated, key=gaps.get)
+        worst = max(animated, key=lambda s: gaps[s])
         warnings.append(
-            f"segment lengths vary: {len(animated)} joint(s) move up to {gaps[worst] * 1000:.3g} mm ({worst}) away from "
-            f"their connector points (tolerance {tol * 1000:g} mm); they get position channels so that forward "
-            "kinematics reproduces the file's segment positions"
+            f"segment lengths vary: {len(animated)} joint(s) move up to {gaps[worst] * 1000:.3g} mm ({worst}) "
+            f"away from their connector points (tolerance {tol * 1000:g} mm); they get position channels so that "
+            "forward kinematics reproduces the file's segment positions"
         )
 
     children = {parent[s] for s in range(S) if parent[s] >= 0}
@@ -503,29 +514,33 @@ def _times(r: _Reader, src: str, warnings: list[str]) -> tuple[np.ndarray, float
     rate = r.subject.get("_rate")
     has_t = all(t is not None for t in r.times_ms)
     t_file = np.array(r.times_ms, dtype=np.float64) / 1000.0 if has_t else None
-    if has_t and N > 1:
+    if t_file is not None and N > 1:
         bad = np.flatnonzero(np.diff(t_file) <= 0)
         if bad.size:
             n = int(bad[0]) + 1
             raise MocapFormatError(src, r.frame_lines[n], f"frame time {r.times_ms[n]:g} ms is not after the previous "
                                                          f"frame's {r.times_ms[n - 1]:g} ms")
     if rate is None:
-        if not has_t:
+        if t_file is None:
             raise MocapFormatError(src, r.subject_line, "no frameRate on <subject> and no time attribute on the frames")
         if N < 2:
-            raise MocapFormatError(src, r.subject_line, "no frameRate on <subject> and a single frame: the rate is unknown")
+            raise MocapFormatError(
+                src, r.subject_line, "no frameRate on <subject> and a single frame: the rate is unknown"
+            )
         return t_file, 1.0 / float(np.median(np.diff(t_file))), "time attribute (no frameRate)"
     if all(i is not None for i in r.indices):
         k = np.array(r.indices, dtype=np.float64)
         if N > 1 and np.any(np.diff(k) <= 0):
             n = int(np.flatnonzero(np.diff(k) <= 0)[0]) + 1
-            raise MocapFormatError(src, r.frame_lines[n], f"frame index {r.indices[n]} does not follow index {r.indices[n - 1]}")
+            raise MocapFormatError(
+                src, r.frame_lines[n], f"frame index {r.indices[n]} does not follow index {r.indices[n - 1]}"
+            )
         k -= k[0]
     else:
         k = np.arange(N, dtype=np.float64)
-    t0 = t_file[0] if has_t else 0.0
+    t0 = t_file[0] if t_file is not None else 0.0
     ideal = t0 + k / rate
-    if has_t:
+    if t_file is not None:
         dev = float(np.abs(t_file - ideal).max())
         if dev > 0.0005 + 1e-9:  # whole milliseconds round by at most 0.5 ms
             warnings.append(f"frame times differ from frameRate {rate:g} Hz by up to {dev * 1000:.3g} ms; "

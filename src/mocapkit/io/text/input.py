@@ -60,7 +60,7 @@ def open_error(src: str, exc: OSError, what: str) -> MocapFormatError:
 
 def read_input(path: str | os.PathLike[str], what: str = "file", *, text: bool = True,
                max_stream_bytes: int | None = None,
-               check_head: Callable[[bytes], None] | None = None) -> bytes:
+               check_head: Callable[[bytes], None] | None = None) -> bytes | bytearray:
     """The bytes of ``path``, read in bounded chunks when it is not a regular file.
 
     ``text=True`` refuses a NUL byte (no text format holds one; UTF-16 is not read) naming its line.
@@ -84,7 +84,7 @@ def read_input(path: str | os.PathLike[str], what: str = "file", *, text: bool =
                 if check_head is not None:
                     check_head(fh.read(_CHUNK))
                     fh.seek(0)
-                data = fh.read()
+                data: bytes | bytearray = fh.read()
             else:
                 buf = bytearray()
                 while True:
@@ -115,7 +115,7 @@ def read_input(path: str | os.PathLike[str], what: str = "file", *, text: bool =
     return data
 
 
-def decode_text(data: bytes) -> tuple[str, str]:
+def decode_text(data: bytes | bytearray) -> tuple[str, str]:
     """``(text, encoding)``: UTF-8 (BOM dropped) or else Latin-1, which decodes any byte."""
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
@@ -213,8 +213,11 @@ def final_line_verdict(prev_rows: list[list[str]], last: list[str], *,
     if cut_kind(last[j], [r[j] for r in prev_rows if j < len(r)]) == "end":
         return "cut", j  # rule (a): '0.' for '0.4', '1e' for '1e-05'
     mine = _shape(last[j])
-    shapes = {_shape(r[j]) if j < len(r) else None for r in prev_rows}
-    shapes.discard(None)
+    shapes: set[tuple[int, int]] = set()
+    for r in prev_rows:
+        shape = _shape(r[j]) if j < len(r) else None
+        if shape is not None:
+            shapes.add(shape)
     if mine is None or len(shapes) != 1:
         return "unknown", j
     dec, exp = shapes.pop()

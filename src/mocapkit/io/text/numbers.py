@@ -20,11 +20,15 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.motion import MAX_ABS  # the model's limit on any value read (re-exported: readers import it here)
+
+# the model's limit on any value read (re-exported: readers import it here)
+from mocapkit.motion import MAX_ABS as MAX_ABS
 
 NUMBER_RE = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?", re.ASCII)  # ASCII: no other digits
 _fullmatch = NUMBER_RE.fullmatch
@@ -70,7 +74,7 @@ def parse_numbers(toks: Iterable[str], src: str, line: int | None, field: str, *
     return out
 
 
-def check_finite_array(values: np.ndarray, src: str, field: str, *, first_line: int | None = None,
+def check_finite_array(values: NDArray[Any], src: str, field: str, *, first_line: int | None = None,
                        allow_nan: bool = False, limit: float = MAX_ABS) -> None:
     """Refuse ``inf`` (and ``nan`` unless ``allow_nan``) or ``|value| > limit`` in an array parsed in bulk.
 
