@@ -163,3 +163,23 @@ def test_each_lazy_package_declares_every_name_it_loads():
         for name, module in where.items():
             module = module if isinstance(module, str) else module[0]
             assert declared.get(name, (None,))[0] == module, (package, name, module)
+
+
+def test_no_numba_kernel_compiles_at_import(tmp_path):
+    """Every compiled kernel waits for its first call: importing every algorithm package (and resolving its
+    names) leaves each numba dispatcher of mocapkit without a compiled signature."""
+    got = _run("""
+import importlib, pkgutil
+import mocapkit
+for info in pkgutil.walk_packages(mocapkit.__path__, "mocapkit."):
+    if info.name.startswith(("mocapkit.pla", "mocapkit.clip", "mocapkit.filters", "mocapkit.segment",
+                             "mocapkit.quat", "mocapkit.rotvec")):
+        importlib.import_module(info.name)
+from numba.core.registry import CPUDispatcher
+kernels = [(name, k, bool(v.signatures)) for name, mod in list(sys.modules.items()) if name.startswith("mocapkit")
+           for k, v in vars(mod).items() if isinstance(v, CPUDispatcher)]
+out["kernels"] = sorted({(n, k) for n, k, _ in kernels})
+out["compiled"] = sorted({(n, k) for n, k, done in kernels if done})
+""", tmp_path)
+    assert len(got["kernels"]) > 40  # the walk did reach the kernels
+    assert got["compiled"] == []
