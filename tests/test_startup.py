@@ -37,7 +37,8 @@ def _run(code: str, tmp_path: Path) -> dict:
     out = tmp_path / "out.json"
     script = (f"import json, sys\nsys.path.insert(0, {str(SRC.parent)!r})\nout = {{}}\n{code}\n"
               f"out['modules'] = sorted(sys.modules)\nopen({str(out)!r}, 'w').write(json.dumps(out))\n")
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300,
+                          check=False)
     assert done.returncode == 0, done.stderr
     return json.loads(out.read_text())
 

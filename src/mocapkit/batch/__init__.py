@@ -6,8 +6,8 @@ import importlib as _importlib
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and tests/import_graph.py
     from mocapkit.batch.engine import BatchResult, run_batch
-    from mocapkit.jobs.inputs import Inputs, expand_inputs
     from mocapkit.batch.worker import run_one
+    from mocapkit.jobs.inputs import Inputs, expand_inputs
 
 #: module -> the names it gives the package on first use
 _LAZY = {

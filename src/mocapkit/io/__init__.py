@@ -24,8 +24,13 @@ if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and 
         sample_data_path,
         write_signal_csv,
     )
-
-    from mocapkit.io.loaders import kind_of, load, load_markers, load_motion, write_markers
+    from mocapkit.io.loaders import (
+        kind_of,
+        load,
+        load_markers,
+        load_motion,
+        write_markers,
+    )
     from mocapkit.io.markers.wide_csv import read_markers_csv, write_markers_csv
 
 #: module -> the names it gives the package on first use

@@ -8,11 +8,23 @@ import importlib as _importlib
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and tests/import_graph.py
-    from mocapkit.pla.base import METHODS, POS_METHODS, Compressed, Encoder, Point, compress
+    from mocapkit.pla.base import (
+        METHODS,
+        POS_METHODS,
+        Compressed,
+        Encoder,
+        Point,
+        compress,
+    )
     from mocapkit.pla.decode import reconstruct, reconstruct_points
     from mocapkit.pla.metrics import Metrics, deviations, evaluate
     from mocapkit.pla.optimal import optimal_max_angle
-    from mocapkit.pla.skeletal import SkeletalCompressed, compress_motion, position_errors, verify_position_bound
+    from mocapkit.pla.skeletal import (
+        SkeletalCompressed,
+        compress_motion,
+        position_errors,
+        verify_position_bound,
+    )
     from mocapkit.pla.tune import compress_to
 
 #: module -> the names it gives the package on first use

@@ -18,31 +18,37 @@ import importlib as _importlib
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and tests/import_graph.py
     from mocapkit.segment.arma import ARMASegmenter
+    from mocapkit.segment.autok import AutoSegmenter, choose_k, cost_curve
     from mocapkit.segment.base import Segmenter
     from mocapkit.segment.clasp import ClaSPSegmenter
+    from mocapkit.segment.cluster_metrics import frame_accuracy, nmi, purity
     from mocapkit.segment.features import (
-                                            LIMB_NAMES,
-                                            LimbFeatures,
-                                            motion_features,
-                                            pose_features,
+        LIMB_NAMES,
+        LimbFeatures,
+        motion_features,
+        pose_features,
     )
     from mocapkit.segment.kernelcpd import KernelCPDSegmenter
     from mocapkit.segment.kmeans import KMeansSegmenter
-    from mocapkit.segment.autok import AutoSegmenter, choose_k, cost_curve
-    from mocapkit.segment.cluster_metrics import frame_accuracy, nmi, purity
-    from mocapkit.segment.naming import Naming, name_actions, name_segments
-    from mocapkit.segment.metrics import F1Result, covering, f1_margin, frame_agreement, ri_paper
+    from mocapkit.segment.metrics import (
+        F1Result,
+        covering,
+        f1_margin,
+        frame_agreement,
+        ri_paper,
+    )
     from mocapkit.segment.mlp import MLPSegmenter
+    from mocapkit.segment.naming import Naming, name_actions, name_segments
     from mocapkit.segment.pca import PCASegmenter
     from mocapkit.segment.pelt import PELTSegmenter
     from mocapkit.segment.registry import BASELINES
     from mocapkit.segment.similarity import (
-                                            DTWResult,
-                                            LabelledSegment,
-                                            PairSimilarity,
-                                            dtw,
-                                            sequence_similarity,
-                                            similarity_table,
+        DTWResult,
+        LabelledSegment,
+        PairSimilarity,
+        dtw,
+        sequence_similarity,
+        similarity_table,
     )
 
 #: module -> the names it gives the package on first use

@@ -11,7 +11,12 @@ import importlib as _importlib
 
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and tests/import_graph.py
-    from mocapkit.verify.compare import ImuComparison, SkeletalComparison, compare_imu, compare_skeletal
+    from mocapkit.verify.compare import (
+        ImuComparison,
+        SkeletalComparison,
+        compare_imu,
+        compare_skeletal,
+    )
     from mocapkit.verify.kinematics import world_pose
     from mocapkit.verify.quaternions import angle_deg, slerp
 
