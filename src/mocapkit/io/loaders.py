@@ -173,7 +173,6 @@ def load(path: str | Path, **options):
     from mocapkit.io.imu.signals import load_signals
 
     register_opensim_readers()
-
     return load_signals(path, **options)
 
 
