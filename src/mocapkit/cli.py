@@ -7,7 +7,6 @@ import sys
 from pathlib import Path
 from typing import Annotated, Optional
 
-import numpy as np
 import typer
 from rich.table import Table
 
@@ -364,6 +363,8 @@ def filter_eval(
     sizes: Annotated[str, typer.Option("--sizes", help="Signal lengths for the exact solver's time curve ('' to skip).")] = "1000,2000,5000,10000,20000,50000",
 ) -> None:
     """The filtering experiments: synthetic Figure 2 signal, step overshoot, juggling flights, timing."""
+    import numpy as np
+
     from mocapkit.evaluation.filtering import evaluate_juggling, evaluate_synthetic, exact_time_curve, figures, moving_markers
     from mocapkit.io.atomic import atomic_write_text
 

@@ -8,7 +8,10 @@ from collections.abc import Callable
 from pathlib import Path
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.skeleton import Motion
+
+TYPE_CHECKING = False
+if TYPE_CHECKING:  # annotations only: importing the dispatcher loads no model, reader or numpy
+    from mocapkit.skeleton import Motion
 
 SKELETAL_SUFFIXES = (".bvh", ".amc", ".mvnx", ".mkc")
 MARKER_SUFFIXES = (".c3d", ".tsv", ".trc")
@@ -175,6 +178,7 @@ def load(path: str | Path, **options):
         return load_markers(path)
     from mocapkit.io.imu.signals import load_signals
 
+    register_opensim_readers()
     return load_signals(path, **options)
 
 
@@ -267,11 +271,12 @@ def _read_opensim_signals(path, *, rate=None):
     return read_opensim_signals(path, rate=rate)
 
 
-def _register_opensim() -> None:
-    from mocapkit.io.imu.signals import register_reader
+def register_opensim_readers() -> None:
+    """Put the OpenSim table reader in :data:`mocapkit.io.imu.signals.READERS` for ``.sto``/``.mot``. Called
+    on first use, not on import (that would load the IMU readers): by :func:`load` and by the names
+    :mod:`mocapkit.io` takes from ``io.imu.signals``."""
+    from mocapkit.io.imu.signals import READERS, register_reader
 
     for suffix in TABLE_SUFFIXES:
-        register_reader(suffix, _read_opensim_signals)
-
-
-_register_opensim()
+        if suffix not in READERS:
+            register_reader(suffix, _read_opensim_signals)

@@ -7,21 +7,48 @@ stores in Parquet and in the catalog. A job never prints; progress goes to an op
 
 from __future__ import annotations
 
+import importlib as _importlib
 from pathlib import Path
 
 from mocapkit.errors import InvalidParameterError, MocapError
-from mocapkit.jobs.compress import check_options as _compress_checks
-from mocapkit.jobs.compress import compress_job
-from mocapkit.jobs.filter import check_options as _filter_checks
-from mocapkit.jobs.filter import filter_job
-from mocapkit.jobs.info import info_job
-from mocapkit.jobs.segment import check_options as _segment_checks
-from mocapkit.jobs.segment import segment_job
-from mocapkit.jobs.verify import check_options as _verify_checks
-from mocapkit.jobs.verify import verify_job
 
-JOBS = {"info": info_job, "compress": compress_job, "filter": filter_job, "segment": segment_job,
-        "verify": verify_job}
+TYPE_CHECKING = False
+if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and tests/import_graph.py
+    from mocapkit.jobs.compress import compress_job
+    from mocapkit.jobs.filter import filter_job
+    from mocapkit.jobs.info import info_job
+    from mocapkit.jobs.segment import segment_job
+    from mocapkit.jobs.verify import verify_job
+
+    JOBS: dict = {}
+
+#: job -> its module, holding ``<job>_job`` and its ``check_options`` (``info`` has none); imported on first use
+_MODULES = {"info": "mocapkit.jobs.info", "compress": "mocapkit.jobs.compress", "filter": "mocapkit.jobs.filter",
+            "segment": "mocapkit.jobs.segment", "verify": "mocapkit.jobs.verify"}
+
+
+def _module(job: str):
+    if job not in _MODULES:
+        raise InvalidParameterError(f"unknown job {job!r}: one of {', '.join(_MODULES)}")
+    return _importlib.import_module(_MODULES[job])
+
+
+def __getattr__(name: str):
+    """``JOBS`` (job -> function) and the ``<job>_job`` functions, their modules imported on first use
+    (PEP 562: ``import mocapkit.jobs`` loads no job), then kept."""
+    if name == "JOBS":
+        value = {job: getattr(_module(job), f"{job}_job") for job in _MODULES}
+    elif name.endswith("_job") and name[:-4] in _MODULES:
+        value = getattr(_module(name[:-4]), name)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = ["JOBS", "batch_output", "check_options", "compress_job", "filter_job", "info_job", "not_read_by", "run_job",
            "segment_job", "verify_job"]
@@ -36,9 +63,8 @@ _KIND_WORD = {"imu": "IMU data", "skeletal": "a skeleton", "markers": "a marker 
 def run_job(job: str, path: str | Path, options: dict, output: str | Path | None = None) -> dict:
     """Run job ``job`` on ``path`` with ``options`` (the single-file command's options in snake case,
     JSON-able values) writing its outputs to ``output`` (None: nothing written). Returns the record."""
-    if job not in JOBS:
-        raise InvalidParameterError(f"unknown job {job!r}: one of {', '.join(JOBS)}")
-    return JOBS[job](Path(path), output=None if output is None else Path(output), **options)
+    run = getattr(_module(job), f"{job}_job")
+    return run(Path(path), output=None if output is None else Path(output), **options)
 
 
 def _named_columns_only(path: Path) -> list[str] | None:
@@ -107,10 +133,7 @@ def check_options(job: str, options: dict, per_file: bool = False) -> None:
     mlp`` without ``--train``): the checks each job makes first, without a file. ``per_file``: a batch's
     options, which each file's manifest entry or sidecar may complete (``compress``: no control, or one
     bound per kind of input)."""
-    if job not in JOBS:
-        raise InvalidParameterError(f"unknown job {job!r}: one of {', '.join(JOBS)}")
-    check = {"compress": _compress_checks, "filter": _filter_checks, "segment": _segment_checks,
-             "verify": _verify_checks}.get(job)
+    check = getattr(_module(job), "check_options", None)
     if check is not None:
         extra = {"per_file": True} if per_file and job == "compress" else {}
         check(**{k: v for k, v in options.items() if k in check.__code__.co_varnames}, **extra)

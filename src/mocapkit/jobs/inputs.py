@@ -28,7 +28,7 @@ _GLOB_MAGIC = ("*", "?", "[")
 def input_suffixes() -> tuple[str, ...]:
     """Every suffix a reader knows (lower case): skeletal, marker and OpenSim table files, and the
     suffixes of the IMU readers' table :data:`mocapkit.io.imu.signals.READERS`."""
-    from mocapkit.io import loaders  # registers the OpenSim readers in READERS
+    from mocapkit.io import loaders  # the suffixes of its skeletal, marker and table readers
     from mocapkit.io.imu.signals import READERS
 
     return tuple(sorted({*loaders.SKELETAL_SUFFIXES, *loaders.MARKER_SUFFIXES, *loaders.TABLE_SUFFIXES,

@@ -13,33 +13,78 @@ purity, NMI, frame accuracy) and ``synthetic`` (signals with known changes). Eve
 frames.
 """
 
-from mocapkit.segment.arma import ARMASegmenter
-from mocapkit.segment.base import Segmenter
-from mocapkit.segment.clasp import ClaSPSegmenter
-from mocapkit.segment.features import (
-                                        LIMB_NAMES,
-                                        LimbFeatures,
-                                        motion_features,
-                                        pose_features,
-)
-from mocapkit.segment.kernelcpd import KernelCPDSegmenter
-from mocapkit.segment.kmeans import KMeansSegmenter
-from mocapkit.segment.autok import AutoSegmenter, choose_k, cost_curve
-from mocapkit.segment.cluster_metrics import frame_accuracy, nmi, purity
-from mocapkit.segment.naming import Naming, name_actions, name_segments
-from mocapkit.segment.metrics import F1Result, covering, f1_margin, frame_agreement, ri_paper
-from mocapkit.segment.mlp import MLPSegmenter
-from mocapkit.segment.pca import PCASegmenter
-from mocapkit.segment.pelt import PELTSegmenter
-from mocapkit.segment.registry import BASELINES
-from mocapkit.segment.similarity import (
-                                        DTWResult,
-                                        LabelledSegment,
-                                        PairSimilarity,
-                                        dtw,
-                                        sequence_similarity,
-                                        similarity_table,
-)
+import importlib as _importlib
+
+TYPE_CHECKING = False
+if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and tests/import_graph.py
+    from mocapkit.segment.arma import ARMASegmenter
+    from mocapkit.segment.autok import AutoSegmenter, choose_k, cost_curve
+    from mocapkit.segment.base import Segmenter
+    from mocapkit.segment.clasp import ClaSPSegmenter
+    from mocapkit.segment.cluster_metrics import frame_accuracy, nmi, purity
+    from mocapkit.segment.features import (
+        LIMB_NAMES,
+        LimbFeatures,
+        motion_features,
+        pose_features,
+    )
+    from mocapkit.segment.kernelcpd import KernelCPDSegmenter
+    from mocapkit.segment.kmeans import KMeansSegmenter
+    from mocapkit.segment.metrics import (
+        F1Result,
+        covering,
+        f1_margin,
+        frame_agreement,
+        ri_paper,
+    )
+    from mocapkit.segment.mlp import MLPSegmenter
+    from mocapkit.segment.naming import Naming, name_actions, name_segments
+    from mocapkit.segment.pca import PCASegmenter
+    from mocapkit.segment.pelt import PELTSegmenter
+    from mocapkit.segment.registry import BASELINES
+    from mocapkit.segment.similarity import (
+        DTWResult,
+        LabelledSegment,
+        PairSimilarity,
+        dtw,
+        sequence_similarity,
+        similarity_table,
+    )
+
+#: module -> the names it gives the package on first use
+_LAZY = {
+    "mocapkit.segment.arma": ("ARMASegmenter",),
+    "mocapkit.segment.base": ("Segmenter",),
+    "mocapkit.segment.clasp": ("ClaSPSegmenter",),
+    "mocapkit.segment.features": ("LIMB_NAMES", "LimbFeatures", "motion_features", "pose_features"),
+    "mocapkit.segment.kernelcpd": ("KernelCPDSegmenter",),
+    "mocapkit.segment.kmeans": ("KMeansSegmenter",),
+    "mocapkit.segment.autok": ("AutoSegmenter", "choose_k", "cost_curve"),
+    "mocapkit.segment.cluster_metrics": ("frame_accuracy", "nmi", "purity"),
+    "mocapkit.segment.naming": ("Naming", "name_actions", "name_segments"),
+    "mocapkit.segment.metrics": ("F1Result", "covering", "f1_margin", "frame_agreement", "ri_paper"),
+    "mocapkit.segment.mlp": ("MLPSegmenter",),
+    "mocapkit.segment.pca": ("PCASegmenter",),
+    "mocapkit.segment.pelt": ("PELTSegmenter",),
+    "mocapkit.segment.registry": ("BASELINES",),
+    "mocapkit.segment.similarity": ("DTWResult", "LabelledSegment", "PairSimilarity", "dtw", "sequence_similarity",
+                                    "similarity_table"),
+}
+_WHERE = {name: module for module, names in _LAZY.items() for name in names}
+
+
+def __getattr__(name: str):
+    """A name of ``__all__``, imported from its module on first use (PEP 562) and then kept."""
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(_importlib.import_module(_WHERE[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = [
     "ARMASegmenter",

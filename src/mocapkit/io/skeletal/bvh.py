@@ -46,13 +46,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapFormatError, MocapWarning
 from mocapkit.io.atomic import atomic_write_text
 from mocapkit.io.text.input import read_input
 from mocapkit.io.text.numbers import MAX_ABS, NUMBER_RE, looks_cut, parse_number
-from mocapkit.quat import to_scipy
 from mocapkit.skeleton import MAX_JOINT_FRAMES, POSITION_CHANNELS, ROTATION_CHANNELS, Motion, Skeleton
 
 _VALID_CHANNELS = POSITION_CHANNELS + ROTATION_CHANNELS
@@ -460,6 +458,8 @@ def motion_from_channels(skel: Skeleton, values: np.ndarray, frame_time: float, 
     # (x, y, z, w) here as in scipy; 0.0 stands for a component that is +0.0 in every frame.
     for order, (joints, cols) in groups.items():
         if any(a == b for a, b in pairwise(order)):
+            from scipy.spatial.transform import Rotation  # scipy only for a bad order: reading imports none
+
             Rotation.from_euler(order, values[:, cols[0]], degrees=True)  # raises scipy's error, as before
         half = np.asarray(values[:, cols], dtype=np.float64)  # (N, joints, len(order)), a new array
         np.deg2rad(half, out=half)
@@ -498,6 +498,8 @@ PARTIAL_AXIS_TOL_DEG = 1e-6
 def channels_from_motion(motion: Motion) -> np.ndarray:
     """BVH channel values ``(N, C)`` for a motion: Euler angles (degrees, unwrapped over time so the
     channels are continuous) in each joint's order, and positions from the local translations."""
+    from mocapkit.quat import to_scipy  # scipy and numba for writing only: reading a BVH imports neither
+
     skel = motion.skeleton
     cols = []
     for j, chans in enumerate(skel.channels):
