@@ -12,6 +12,11 @@ from pathlib import Path
 from mocapkit.errors import InvalidParameterError, MocapError
 from mocapkit.jobs.compress import check_options as _compress_checks
 from mocapkit.jobs.compress import compress_job
+from mocapkit.jobs.compress_kinds import (ImuCompressOptions, PacketCompressOptions, SkeletonCompressOptions,
+                                          compress_options)
+from mocapkit.jobs.imu_compress import compress_imu
+from mocapkit.jobs.packet_compress import compress_packets
+from mocapkit.jobs.skeleton_compress import compress_skeleton
 from mocapkit.jobs.filter import check_options as _filter_checks
 from mocapkit.jobs.filter import filter_job
 from mocapkit.jobs.info import info_job
@@ -23,8 +28,9 @@ from mocapkit.jobs.verify import verify_job
 JOBS = {"info": info_job, "compress": compress_job, "filter": filter_job, "segment": segment_job,
         "verify": verify_job}
 
-__all__ = ["JOBS", "batch_output", "check_options", "compress_job", "filter_job", "info_job", "not_read_by", "run_job",
-           "segment_job", "verify_job"]
+__all__ = ["JOBS", "ImuCompressOptions", "PacketCompressOptions", "SkeletonCompressOptions", "batch_output",
+           "check_options", "compress_imu", "compress_job", "compress_options", "compress_packets",
+           "compress_skeleton", "filter_job", "info_job", "not_read_by", "run_job", "segment_job", "verify_job"]
 
 #: the kinds of input (``mocapkit.io.loaders.kind_of``) each job reads
 READS = {"info": ("imu", "skeletal", "markers", "table"), "compress": ("imu", "skeletal"),
