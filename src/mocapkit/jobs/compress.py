@@ -8,8 +8,13 @@ import inspect
 from pathlib import Path
 
 from mocapkit.jobs.common import no_progress
-from mocapkit.jobs.compress_kinds import (CompressOptions, ImuCompressOptions, SkeletonCompressOptions,
-                                          check_options, compress_options)
+from mocapkit.jobs.compress_kinds import (
+    CompressOptions,
+    ImuCompressOptions,
+    SkeletonCompressOptions,
+    check_options,
+    compress_options,
+)
 from mocapkit.jobs.imu_compress import compress_imu
 from mocapkit.jobs.skeleton_compress import compress_skeleton
 

@@ -7,8 +7,15 @@ from pathlib import Path
 from typing import TextIO
 
 from mocapkit.errors import InvalidParameterError
-from mocapkit.jobs.common import (Progress, check_outputs, imu_columns, no_progress, output_entry, recording,
-                                  sensor_outputs)
+from mocapkit.jobs.common import (
+    Progress,
+    check_outputs,
+    imu_columns,
+    no_progress,
+    output_entry,
+    recording,
+    sensor_outputs,
+)
 from mocapkit.jobs.compress_kinds import ImuCompressOptions, naming_target_icr
 
 #: suffixes that name a file, not a folder (an IMU folder's output must be a folder)

@@ -9,9 +9,21 @@ from pathlib import Path
 import numpy as np
 
 from mocapkit.errors import BoundViolationError, InvalidParameterError
-from mocapkit.jobs.common import Progress, check_outputs, imu_columns, no_progress, output_entry, recording
+from mocapkit.jobs.common import (
+    Progress,
+    check_outputs,
+    imu_columns,
+    no_progress,
+    output_entry,
+    recording,
+)
 from mocapkit.jobs.compress_kinds import PacketCompressOptions, compress_options
-from mocapkit.jobs.packets import RAW_REFERENCE_HZ, RAW_SAMPLE_BYTES, decode_at, nominal_rate
+from mocapkit.jobs.packets import (
+    RAW_REFERENCE_HZ,
+    RAW_SAMPLE_BYTES,
+    decode_at,
+    nominal_rate,
+)
 
 
 def compress_packets_job(path: Path, output: Path, *, progress: Progress = no_progress, **given) -> dict:
@@ -30,9 +42,9 @@ def compress_packets(path: Path, options: PacketCompressOptions, *, output: Path
     """
     from mocapkit.io import load_signals
     from mocapkit.io.atomic import is_device_or_pipe
-    from mocapkit.pla.packet_layout import Header, Sensor, delta_bound, mkp_bytes
-    from mocapkit.jobs.readers import read_mkp
     from mocapkit.io.formats.mkp import write_mkp
+    from mocapkit.jobs.readers import read_mkp
+    from mocapkit.pla.packet_layout import Header, Sensor, delta_bound, mkp_bytes
     from mocapkit.pla.packets import DEFAULT_MAXLEN, default_bits, packetise
     from mocapkit.quat import angular_distance
 

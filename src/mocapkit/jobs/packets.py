@@ -9,9 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mocapkit.errors import BoundViolationError, InvalidParameterError
-from mocapkit.jobs.common import (Progress, check_outputs, imu_columns, no_progress, output_entry, recording,
-                                  sensor_outputs)
+from mocapkit.errors import InvalidParameterError
+from mocapkit.jobs.common import imu_columns, output_entry, sensor_outputs
 
 #: bytes per sample of the raw stream a packet stream is compared with: four float32
 RAW_SAMPLE_BYTES = 16

@@ -7,7 +7,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from mocapkit.errors import InvalidParameterError
-from mocapkit.jobs.common import Progress, check_outputs, no_progress, output_entry, recording
+from mocapkit.jobs.common import (
+    Progress,
+    check_outputs,
+    no_progress,
+    output_entry,
+    recording,
+)
 from mocapkit.jobs.compress_kinds import SkeletonCompressOptions, naming_target_icr
 
 
@@ -50,9 +56,10 @@ def compress_skeleton(path: Path, options: SkeletonCompressOptions, *, output: P
 
 def _keyframes(path: Path, output: Path | None, o: SkeletonCompressOptions, progress: Progress) -> dict:
     """glTF keyframes or the decoded BVH, the record with the joints' and the shell's errors."""
-    from mocapkit.io.skeletal.bvh import write_bvh
     from mocapkit.io.formats.gltf import ROTATION_FORMATS
-    from mocapkit.io.loaders import load_motion, unit_cm as find_unit
+    from mocapkit.io.loaders import load_motion
+    from mocapkit.io.loaders import unit_cm as find_unit
+    from mocapkit.io.skeletal.bvh import write_bvh
     from mocapkit.jobs.gltf_out import compress_to_gltf, write_checked
     from mocapkit.pla.skeletal import compress_motion, report, verify_position_bound
 
