@@ -11,13 +11,19 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-import mocapkit.jobs as jobs
 import mocapkit.jobs.compress as compress_module
+from mocapkit import jobs
 from mocapkit.batch.file_options import load_manifest, resolve
 from mocapkit.cli import app
 from mocapkit.errors import InvalidParameterError
-from mocapkit.jobs import (ImuCompressOptions, PacketCompressOptions, SkeletonCompressOptions, batch_output,
-                           compress_job, compress_options)
+from mocapkit.jobs import (
+    ImuCompressOptions,
+    PacketCompressOptions,
+    SkeletonCompressOptions,
+    batch_output,
+    compress_job,
+    compress_options,
+)
 from mocapkit.jobs.compress import options_for
 
 CLASSES = (ImuCompressOptions, SkeletonCompressOptions, PacketCompressOptions)
@@ -53,7 +59,7 @@ def _cli_options(monkeypatch, argv: list[str]):
 
 def _batch_options(monkeypatch, argv: list[str]) -> dict:
     """The options dict ``batch compress`` hands to the engine (the engine replaced)."""
-    import mocapkit.cli_batch as cli_batch
+    from mocapkit import cli_batch
 
     seen = []
     monkeypatch.setattr(cli_batch, "_run", lambda job, inputs, options, *a: seen.append(options))
