@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import inspect
 from pathlib import Path
+from typing import cast
 
 from mocapkit.jobs.common import no_progress
 from mocapkit.jobs.compress_kinds import (
-    CompressOptions,
     ImuCompressOptions,
     SkeletonCompressOptions,
     check_options,
@@ -24,15 +24,17 @@ __all__ = ["check_options", "compress_job", "options_for"]
 RUN_NAMES = ("output", "points_stream", "discard_ok", "progress")
 #: the options :func:`compress_job` takes (those of IMU data and of skeletons)
 JOB_OPTIONS = (ImuCompressOptions, SkeletonCompressOptions)
+JobOptions = ImuCompressOptions | SkeletonCompressOptions
 _CHECKED = ("method", "threshold", "target_icr", "max_angle", "max_position_error", "skeletal_format", "error_metric")
 
 
-def options_for(path: Path, output: Path | None = None, **given) -> CompressOptions:
+def options_for(path: Path, output: Path | None = None, **given) -> JobOptions:
     """The options of compressing ``path`` (IMU data or a skeleton, by the file's kind) to ``output``."""
     from mocapkit.io.loaders import kind_of
 
     check_options(**{k: given[k] for k in _CHECKED if k in given})  # before the file is looked at, as always
-    return compress_options("skeletal" if kind_of(Path(path)) == "skeletal" else "imu", output, **given)
+    kind = "skeletal" if kind_of(Path(path)) == "skeletal" else "imu"
+    return cast(JobOptions, compress_options(kind, output, **given))
 
 
 def compress_job(path: Path, **given) -> dict:

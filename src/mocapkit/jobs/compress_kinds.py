@@ -8,6 +8,7 @@ import contextlib
 import math
 from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import TypeVar
 
 from mocapkit.errors import InvalidParameterError
 
@@ -72,6 +73,7 @@ class PacketCompressOptions:
 
 
 CompressOptions = ImuCompressOptions | SkeletonCompressOptions | PacketCompressOptions
+T = TypeVar("T", ImuCompressOptions, SkeletonCompressOptions, PacketCompressOptions)
 _CLASSES = {"imu": ImuCompressOptions, "skeletal": SkeletonCompressOptions, "packets": PacketCompressOptions}
 #: the options only given to be refused or ignored by a kind that has no field for them
 _EXTRA = ("method", "threshold", "target_icr", "max_angle", "max_position_error", "asf", "unit_cm",
@@ -132,7 +134,7 @@ def compress_options(kind: str, output: Path | None = None, **given) -> Compress
         raise InvalidParameterError("--max-position-error, --asf and --unit-cm apply to BVH/AMC input")
     if given.get("asf") is not None:
         given["asf"] = Path(given["asf"])
-    return _build(kind, given)
+    return _build(_CLASSES[kind], given)
 
 
 def _packets(output, given: dict) -> PacketCompressOptions:
@@ -152,12 +154,11 @@ def _packets(output, given: dict) -> PacketCompressOptions:
         given["packet_bytes"] = 20
     bits = given.get("packet_bits")
     check_packet_options(max_angle, default_bits(max_angle) if bits is None else bits, given["packet_bytes"])
-    return _build("packets", given)
+    return _build(PacketCompressOptions, given)
 
 
-def _build(kind: str, given: dict) -> CompressOptions:
-    cls = _CLASSES[kind]
-    return cls(**{f.name: given[f.name] for f in fields(cls) if f.name in given})
+def _build(cls: type[T], given: dict) -> T:
+    return cls(**{f.name: given[f.name] for f in fields(cls) if f.name in given})  # type: ignore[arg-type]
 
 
 @contextlib.contextmanager

@@ -70,7 +70,7 @@ def compress_imu(path: Path, options: ImuCompressOptions, *, output: Path | None
     mode, target = (("threshold", o.threshold) if o.threshold is not None
                     else ("target_icr", o.target_icr) if o.target_icr is not None else ("max_angle", o.max_angle))
     warnings: list[str] = []
-    dests = {name: output for name in signals}
+    dests: dict[str, Path] = {} if output is None else {name: output for name in signals}
     if output is not None and folder_mode:
         dests, warnings = sensor_outputs(output, list(signals), path)
     comps = {}

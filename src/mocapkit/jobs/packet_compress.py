@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -29,7 +30,8 @@ from mocapkit.jobs.packets import (
 def compress_packets_job(path: Path, output: Path, *, progress: Progress = no_progress, **given) -> dict:
     """:func:`compress_packets` with the options given by name (``max_angle``, ``packet_bits``...), built by
     :func:`mocapkit.jobs.compress_kinds.compress_options`."""
-    return compress_packets(path, compress_options("packets", output, **given), output=output, progress=progress)
+    options = cast(PacketCompressOptions, compress_options("packets", output, **given))
+    return compress_packets(path, options, output=output, progress=progress)
 
 
 def compress_packets(path: Path, options: PacketCompressOptions, *, output: Path,
@@ -64,7 +66,8 @@ def compress_packets(path: Path, options: PacketCompressOptions, *, output: Path
                                                             o.time_unit))
     if len(signals) > 255:
         raise InvalidParameterError(f"{path}: {len(signals)} sensors; a packet file holds at most 255")
-    sensors, sent, per = [], [], []
+    sensors, per = [], []
+    sent: list[tuple[float, int, int, bytes]] = []
     with progress(f"packetising {path.name}", len(signals)) as update:
         for sid, (name, sig) in enumerate(signals.items()):
             if sig.kind != "quaternion":
@@ -82,7 +85,7 @@ def compress_packets(path: Path, options: PacketCompressOptions, *, output: Path
     data = mkp_bytes(header, [p for *_, p in sent])
     write_mkp(output, data)
     back = read_mkp(output) if not is_device_or_pipe(output) else read_mkp(output, data=data)
-    records = []
+    records: list[dict] = []
     for (name, sig), pk in zip(signals.items(), per):
         s = back.streams[name]
         if not (np.array_equal(s.ticks, pk.ticks) and np.array_equal(s.codes, pk.codes)) or back.lost_packets:

@@ -77,7 +77,7 @@ def _keyframes(path: Path, output: Path | None, o: SkeletonCompressOptions, prog
     steps = None if o.threshold is not None else 41 if o.target_icr is not None else 15  # repair rounds: the ticks carry the total
     stored = None
     with progress(f"compressing {path.name}", steps) as update, naming_target_icr(o.target_icr):
-        if gltf_out and bound is not None:  # the bound is checked on the decoded file (written here)
+        if gltf_out and output is not None and bound is not None:  # the bound is checked on the decoded file (written here)
             comp, stored = compress_to_gltf(motion, bound, output, rotations=o.gltf_rotations, unit_m=ucm / 100.0,
                                             name=path.stem, method=o.method, max_segment_length=o.max_segment_length,
                                             progress=update, end_sites=end_sites)
