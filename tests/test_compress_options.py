@@ -190,3 +190,8 @@ def test_each_options_class_is_frozen_and_typed(cls):
         with pytest.raises(dataclasses.FrozenInstanceError):
             setattr(options, f.name, getattr(options, f.name))
     assert options == dataclasses.replace(options) and hash(options) == hash(dataclasses.replace(options))
+
+
+def test_the_packets_job_takes_the_options_it_always_took(imu, tmp_path):
+    with pytest.raises(TypeError, match="unexpected keyword argument 'asf'"):
+        compress_options("packets", tmp_path / "p.mkp", max_angle=2.0, asf="86.asf")

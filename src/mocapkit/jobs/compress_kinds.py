@@ -75,11 +75,11 @@ class PacketCompressOptions:
 CompressOptions = ImuCompressOptions | SkeletonCompressOptions | PacketCompressOptions
 T = TypeVar("T", ImuCompressOptions, SkeletonCompressOptions, PacketCompressOptions)
 _CLASSES = {"imu": ImuCompressOptions, "skeletal": SkeletonCompressOptions, "packets": PacketCompressOptions}
-#: the options only given to be refused or ignored by a kind that has no field for them
-_EXTRA = ("method", "threshold", "target_icr", "max_angle", "max_position_error", "asf", "unit_cm",
-          "packet_bits", "packet_bytes")
-#: every name :func:`compress_options` takes
-OPTION_NAMES = frozenset(f.name for c in _CLASSES.values() for f in fields(c)) | frozenset(_EXTRA)
+_POINTS = frozenset(f.name for c in (ImuCompressOptions, SkeletonCompressOptions) for f in fields(c)) \
+    | {"packet_bits", "packet_bytes"}
+#: the names :func:`compress_options` takes for each kind (some only to refuse them, as the command does)
+TAKES = {"imu": _POINTS, "skeletal": _POINTS,
+         "packets": frozenset(f.name for f in fields(PacketCompressOptions)) | {"method", "threshold", "target_icr"}}
 
 
 def check_options(method: str = "fastsw", threshold=None, target_icr=None, max_angle=None,
@@ -117,7 +117,7 @@ def compress_options(kind: str, output: Path | None = None, **given) -> Compress
     silently lost (``--asf`` for IMU data...) are refused."""
     if kind not in _CLASSES:
         raise InvalidParameterError(f"unknown compress kind {kind!r}: one of {', '.join(KINDS)}")
-    unknown = sorted(set(given) - OPTION_NAMES)
+    unknown = sorted(set(given) - TAKES[kind])
     if unknown:
         raise TypeError(f"compress_options() got an unexpected keyword argument {unknown[0]!r}")
     if kind == "packets":
