@@ -42,7 +42,8 @@ from mocapkit.pla.packet_layout import (
     parse_packet,
 )
 from mocapkit.jobs.readers import read_mkp
-from mocapkit.jobs.packets import compress_packets_job, decode_at, decompress_packets_job
+from mocapkit.jobs.packet_compress import compress_packets_job
+from mocapkit.jobs.packets import decode_at, decompress_packets_job
 from mocapkit.pla import anglesw
 from mocapkit.pla.packets import EPS, default_bits, packetise
 

@@ -117,29 +117,25 @@ def compress(
     if stats_only and output is not None:
         raise InvalidParameterError("--stats-only writes nothing: drop it or drop --output")
     numbers_only = as_json or stats_only
+    common = {"method": method.value, "threshold": threshold, "target_icr": target_icr, "max_angle": max_angle,
+               "max_segment_length": max_segment_length, "rate": rate, "time_column": time_column,
+               "quaternion_columns": quaternion_columns, "scalar_last": scalar_last, "time_unit": time_unit}
     if output is not None and output.suffix.lower() == ".mkp":  # radio packets (docs/mkp.md)
         from mocapkit.cli_packets import print_compress
-        from mocapkit.jobs.packets import compress_packets_job
+        from mocapkit.jobs import compress_options, compress_packets
 
-        rec = compress_packets_job(
-            input, output, max_angle=max_angle, method=method.value, threshold=threshold, target_icr=target_icr,
-            packet_bits=packet_bits, packet_bytes=20 if packet_bytes is None else packet_bytes,
-            max_segment_length=max_segment_length, rate=rate,
-            time_column=time_column, quaternion_columns=quaternion_columns, scalar_last=scalar_last,
-            time_unit=time_unit, progress=_progress)
+        options = compress_options("packets", output, **common, packet_bits=packet_bits, packet_bytes=packet_bytes)
+        rec = compress_packets(input, options, output=output, progress=_progress)
         print_warnings(rec)
         print_compress(rec, input, as_json)
         return
     if packet_bits is not None or packet_bytes is not None:
         raise InvalidParameterError("--packet-bits and --packet-bytes apply to a packet stream (-o OUT.mkp)")
     rec = compress_job(
-        input, method=method.value, threshold=threshold, target_icr=target_icr, max_angle=max_angle,
-        max_segment_length=max_segment_length, rate=rate, time_column=time_column,
-        quaternion_columns=quaternion_columns, scalar_last=scalar_last, time_unit=time_unit, asf=asf,
-        max_position_error=max_position_error, unit_cm=unit_cm, strict=strict, output=output,
-        points_stream=None if numbers_only else sys.stdout, discard_ok=numbers_only, progress=_progress,
-        gltf_rotations=gltf_rotations.value, error_metric=error_metric.value, shell_distance=shell_distance,
-        block_frames=block_frames, entropy=entropy)
+        input, **common, asf=asf, max_position_error=max_position_error, unit_cm=unit_cm, strict=strict,
+        output=output, points_stream=None if numbers_only else sys.stdout, discard_ok=numbers_only,
+        progress=_progress, gltf_rotations=gltf_rotations.value, error_metric=error_metric.value,
+        shell_distance=shell_distance, block_frames=block_frames, entropy=entropy)
     print_warnings(rec)
     if rec["kind"] == "skeletal":
         if as_json:

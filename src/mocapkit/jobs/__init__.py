@@ -15,9 +15,18 @@ from mocapkit.errors import InvalidParameterError, MocapError
 TYPE_CHECKING = False
 if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and tests/import_graph.py
     from mocapkit.jobs.compress import compress_job
+    from mocapkit.jobs.compress_kinds import (
+        ImuCompressOptions,
+        PacketCompressOptions,
+        SkeletonCompressOptions,
+        compress_options,
+    )
     from mocapkit.jobs.filter import filter_job
+    from mocapkit.jobs.imu_compress import compress_imu
     from mocapkit.jobs.info import info_job
+    from mocapkit.jobs.packet_compress import compress_packets
     from mocapkit.jobs.segment import segment_job
+    from mocapkit.jobs.skeleton_compress import compress_skeleton
     from mocapkit.jobs.verify import verify_job
 
     JOBS: dict = {}
@@ -25,6 +34,14 @@ if TYPE_CHECKING:  # what __getattr__ loads on first use, for type checkers and 
 #: job -> its module, holding ``<job>_job`` and its ``check_options`` (``info`` has none); imported on first use
 _MODULES = {"info": "mocapkit.jobs.info", "compress": "mocapkit.jobs.compress", "filter": "mocapkit.jobs.filter",
             "segment": "mocapkit.jobs.segment", "verify": "mocapkit.jobs.verify"}
+
+#: the compress job by kind and its options (jobs/compress_kinds.py): name -> module, imported on first use
+_COMPRESS_NAMES = {"ImuCompressOptions": "mocapkit.jobs.compress_kinds",
+                   "SkeletonCompressOptions": "mocapkit.jobs.compress_kinds",
+                   "PacketCompressOptions": "mocapkit.jobs.compress_kinds",
+                   "compress_options": "mocapkit.jobs.compress_kinds", "compress_imu": "mocapkit.jobs.imu_compress",
+                   "compress_skeleton": "mocapkit.jobs.skeleton_compress",
+                   "compress_packets": "mocapkit.jobs.packet_compress"}
 
 
 def _module(job: str):
@@ -40,6 +57,8 @@ def __getattr__(name: str):
         value = {job: getattr(_module(job), f"{job}_job") for job in _MODULES}
     elif name.endswith("_job") and name[:-4] in _MODULES:
         value = getattr(_module(name[:-4]), name)
+    elif name in _COMPRESS_NAMES:
+        value = getattr(_importlib.import_module(_COMPRESS_NAMES[name]), name)
     else:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     globals()[name] = value
@@ -50,8 +69,9 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
 
 
-__all__ = ["JOBS", "batch_output", "check_options", "compress_job", "filter_job", "info_job", "not_read_by", "run_job",
-           "segment_job", "verify_job"]
+__all__ = ["JOBS", "ImuCompressOptions", "PacketCompressOptions", "SkeletonCompressOptions", "batch_output",
+           "check_options", "compress_imu", "compress_job", "compress_options", "compress_packets",
+           "compress_skeleton", "filter_job", "info_job", "not_read_by", "run_job", "segment_job", "verify_job"]
 
 #: the kinds of input (``mocapkit.io.loaders.kind_of``) each job reads
 READS = {"info": ("imu", "skeletal", "markers", "table"), "compress": ("imu", "skeletal"),

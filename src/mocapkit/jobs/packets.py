@@ -1,6 +1,6 @@
-"""The ``.mkp`` radio packet jobs: ``mocapkit compress IMU --max-angle DEG -o OUT.mkp`` (the C packetiser
-over every sensor, the written file decoded and its bound checked on every sample) and
-``mocapkit decompress OUT.mkp`` (the points, or the full-rate SLERP decode, never across a lost packet)."""
+"""``.mkp`` radio packets read back: ``mocapkit decompress OUT.mkp`` (the points, or the full-rate SLERP decode,
+never across a lost packet) and the decode both it and the compress job
+(:mod:`mocapkit.jobs.packet_compress`) use."""
 
 from __future__ import annotations
 
@@ -9,9 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mocapkit.errors import BoundViolationError, InvalidParameterError
-from mocapkit.jobs.common import (Progress, check_outputs, imu_columns, no_progress, output_entry, recording,
-                                  sensor_outputs)
+from mocapkit.errors import InvalidParameterError
+from mocapkit.jobs.common import imu_columns, output_entry, sensor_outputs
 
 #: bytes per sample of the raw stream a packet stream is compared with: four float32
 RAW_SAMPLE_BYTES = 16
@@ -54,102 +53,6 @@ def decode_at(ticks: np.ndarray, values: np.ndarray, gap_before: np.ndarray, u: 
             keep[i0:i1] = True
             out.append(reconstruct_points(ticks[a:b].astype(np.float64), values[a:b], u[i0:i1], "quaternion"))
     return keep, (np.concatenate(out) if out else np.empty((0, 4)))
-
-
-def compress_packets_job(path: Path, output: Path, *, max_angle: float | None, method: str = "anglesw",
-                         threshold: float | None = None, target_icr: float | None = None, packet_bits: int | None = None,
-                         packet_bytes: int = 20, max_segment_length: int | None = None, rate: float | None = None,
-                         time_column: str | None = None, quaternion_columns: str | None = None,
-                         scalar_last: bool = False, time_unit: str | None = None, precision: str = "float64",
-                         progress: Progress = no_progress) -> dict:
-    """Every sensor of the IMU input ``path`` through the C packetiser into one ``.mkp`` file.
-
-    The packets of all sensors are stored in the order a receiver would get them (by the time of the
-    sample whose push sent them). The written file is read back and decoded at every sample: a
-    sample further than ``max_angle`` from its original is a :class:`BoundViolationError` (a bug).
-    """
-    from mocapkit.io import load_signals
-    from mocapkit.io.atomic import is_device_or_pipe
-    from mocapkit.pla.packet_layout import Header, Sensor, delta_bound, mkp_bytes
-    from mocapkit.jobs.readers import read_mkp
-    from mocapkit.io.formats.mkp import write_mkp
-    from mocapkit.pla.packets import DEFAULT_MAXLEN, check_packet_options, default_bits, packetise
-    from mocapkit.quat import angular_distance
-
-    path, output = Path(path), Path(output)
-    if max_angle is None or threshold is not None or target_icr is not None:
-        raise InvalidParameterError(f"{output}: a .mkp packet stream is bounded by --max-angle DEG only")
-    if method not in ("anglesw", "fastsw"):  # fastsw: the command's default, not a choice
-        raise InvalidParameterError(f"{output}: a .mkp packet stream is made by the angle-bounded encoder "
-                                    f"(anglesw), not {method}")
-    if not (math.isfinite(max_angle) and max_angle > 0):
-        raise InvalidParameterError(f"--max-angle {max_angle!r}: a positive number of degrees")
-    bits = default_bits(max_angle) if packet_bits is None else packet_bits
-    check_packet_options(max_angle, bits, packet_bytes)
-    maxlen = DEFAULT_MAXLEN if max_segment_length is None else max_segment_length
-    from mocapkit.io.loaders import kind_of
-
-    if kind_of(path) != "imu":
-        raise InvalidParameterError(f"{output}: a .mkp packet stream holds IMU orientation streams; {path} is not one")
-    check_outputs(path, (output, "--output"))
-    if output.is_dir():
-        raise InvalidParameterError(f"{output}: a packet stream is one file (.mkp), not a folder")
-    signals = load_signals(path, rate=rate, **imu_columns(time_column, quaternion_columns, scalar_last, time_unit))
-    if len(signals) > 255:
-        raise InvalidParameterError(f"{path}: {len(signals)} sensors; a packet file holds at most 255")
-    sensors, sent, per = [], [], []
-    with progress(f"packetising {path.name}", len(signals)) as update:
-        for sid, (name, sig) in enumerate(signals.items()):
-            if sig.kind != "quaternion":
-                raise InvalidParameterError(f"{sig.source}: {name} is not a quaternion signal")
-            r = nominal_rate(sig)
-            sensors.append(Sensor(name, r, float(sig.times[0])))
-            pk = packetise(sig.values, max_angle, bits=bits, packet_bytes=packet_bytes, max_segment_length=maxlen,
-                           sensor=sid, precision=precision)
-            at = sig.times[np.minimum(pk.sent_at, len(sig) - 1)]
-            sent.extend((float(t), sid, k, p) for k, (t, p) in enumerate(zip(at, pk.packets)))
-            per.append(pk)
-            update(sid + 1)
-    sent.sort(key=lambda x: (x[0], x[1], x[2]))
-    header = Header(bits, packet_bytes, float(max_angle), maxlen, tuple(sensors))
-    data = mkp_bytes(header, [p for *_, p in sent])
-    write_mkp(output, data)
-    back = read_mkp(output) if not is_device_or_pipe(output) else read_mkp(output, data=data)
-    records = []
-    for (name, sig), pk in zip(signals.items(), per):
-        s = back.streams[name]
-        if not (np.array_equal(s.ticks, pk.ticks) and np.array_equal(s.codes, pk.codes)) or back.lost_packets:
-            raise BoundViolationError(f"{output}: {name}: the file does not give back the points the packetiser sent")
-        keep, dec = decode_at(s.ticks, s.values, s.gap_before, np.arange(len(sig), dtype=np.float64))
-        err = np.degrees(angular_distance(dec, sig.values[keep]))
-        if not keep.all() or (len(err) and err.max() > max_angle):
-            raise BoundViolationError(f"{output}: {name}: a decoded sample is {float(err.max()):.6g} degrees from the "
-                                      f"original, more than --max-angle {max_angle:g} (a bug: please report it)")
-        nbytes = sum(len(p) for p in pk.packets)
-        n = len(sig)
-        bps = nbytes * sensors[len(records)].rate / n
-        raw = RAW_SAMPLE_BYTES * sensors[len(records)].rate
-        records.append({
-            "name": name, "source": sig.source, "method": "anglesw", "mode": "max_angle", "target": max_angle,
-            "threshold": math.degrees(math.radians(max_angle) - delta_bound(bits) - 1e-6),
-            "max_segment_length": maxlen, "n_samples": n, "n_points": len(pk.ticks),
-            "icr": len(pk.ticks) / n, "mean_segment_length": (n - 1) / max(len(pk.ticks) - 1, 1),
-            "aad_deg": float(err.mean()), "max_deg": float(err.max()), "std_deg": float(err.std()),
-            "packets": len(pk.packets), "bytes": nbytes, "rate_hz": sensors[len(records)].rate,
-            "bytes_per_s": bps, "raw_float32_bytes_per_s": raw, "ratio": nbytes / (RAW_SAMPLE_BYTES * n),
-            "ratio_100hz": bps / (RAW_SAMPLE_BYTES * RAW_REFERENCE_HZ),
-        })
-    warnings = []
-    for sig in signals.values():
-        for w in sig.meta.get("warnings", []):
-            if f"{sig.source}: {w}" not in warnings:
-                warnings.append(f"{sig.source}: {w}")
-    skipped = sorted({f for s in signals.values() for f in s.meta.get("skipped_files", [])})
-    return {"job": "compress", "file": str(path), "kind": "imu", "method": "mkp", "mode": "max_angle",
-            "target": max_angle, "packet_bits": bits, "packet_bytes": packet_bytes,
-            "quantisation_bound_deg": math.degrees(delta_bound(bits)), "precision": precision,
-            "bytes": len(data), "signals": records, "warnings": warnings, "skipped_files": skipped,
-            "outputs": [output_entry(output, "mkp", max_angle, "deg")], "recording": recording(signals, path)}
 
 
 def _originals(times_from: Path, names: list[str], rate, columns) -> dict:
