@@ -5,18 +5,60 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.table import Table
 
 from mocapkit.cli_options import (  # noqa: F401 - _console, _json and the limits are part of the module's face
-    MAX_FILTER_ORDER, MAX_SEGMENT_LENGTH, RATE_RANGE, UNIT_RANGE, AsfOpt, AutoOpt, ColumnsOpt, DownsampleOpt,
-    BlockFramesOpt, EntropyOpt, ErrorMetric, ErrorMetricOpt, GltfRotations, GltfRotationsOpt, JointOpt, LabelsOpt, MarkersOpt, MaxAngleOpt, MaxLenOpt, MaxPositionErrorOpt,
-    Method, MethodOpt, OrderOpt,
-    PenaltyOpt, QuatColumnsOpt, RateOpt, ScalarLastOpt, SegMethod, SegMethodOpt, SegRateOpt, Solver, SolverOpt,
-    ShellDistanceOpt, StrictOpt, TargetIcrOpt, ThresholdOpt, TimeColumnOpt, TimeUnitOpt, TrainOpt, UnitCmOpt, _check_output,
-    _console, _json, _progress, _within, console, err, print_warnings,
+    MAX_FILTER_ORDER,
+    MAX_SEGMENT_LENGTH,
+    RATE_RANGE,
+    UNIT_RANGE,
+    AsfOpt,
+    AutoOpt,
+    BlockFramesOpt,
+    ColumnsOpt,
+    DownsampleOpt,
+    EntropyOpt,
+    ErrorMetric,
+    ErrorMetricOpt,
+    GltfRotations,
+    GltfRotationsOpt,
+    JointOpt,
+    LabelsOpt,
+    MarkersOpt,
+    MaxAngleOpt,
+    MaxLenOpt,
+    MaxPositionErrorOpt,
+    Method,
+    MethodOpt,
+    OrderOpt,
+    PenaltyOpt,
+    QuatColumnsOpt,
+    RateOpt,
+    ScalarLastOpt,
+    SegMethod,
+    SegMethodOpt,
+    SegRateOpt,
+    ShellDistanceOpt,
+    Solver,
+    SolverOpt,
+    StrictOpt,
+    TargetIcrOpt,
+    ThresholdOpt,
+    TimeColumnOpt,
+    TimeUnitOpt,
+    TrainOpt,
+    UnitCmOpt,
+    _check_output,
+    _console,
+    _json,
+    _progress,
+    _within,
+    console,
+    err,
+    print_warnings,
 )
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapError
 from mocapkit.jobs.common import imu_columns as _columns
@@ -72,7 +114,7 @@ def _summary_table(records: list[dict], title: str) -> Table:
 def compress(
     input: Annotated[Path, typer.Argument(help="An IMU file or a folder of sensors; or a skeleton (BVH, AMC, MVNX, .mkc).")],
     output: Annotated[
-        Optional[Path], typer.Option("--output", "-o", help="Points CSV (a folder when INPUT is a folder).")
+        Path | None, typer.Option("--output", "-o", help="Points CSV (a folder when INPUT is a folder).")
     ] = None,
     method: MethodOpt = Method.fastsw,
     threshold: ThresholdOpt = None,
@@ -93,10 +135,10 @@ def compress(
     shell_distance: ShellDistanceOpt = 3.0,
     block_frames: BlockFramesOpt = None,
     entropy: EntropyOpt = "zstd",
-    packet_bits: Annotated[Optional[int], typer.Option(
+    packet_bits: Annotated[int | None, typer.Option(
         "--packet-bits", help=".mkp packets: bits per quaternion component, 6..16 (default: the fewest whose "
                               "quantisation stays within 15% of --max-angle).", callback=_within(6, 16))] = None,
-    packet_bytes: Annotated[Optional[int], typer.Option(
+    packet_bytes: Annotated[int | None, typer.Option(
         "--packet-bytes", help=".mkp packets: the radio payload, 16..255 bytes (default 20: BLE 4 ATT).",
         callback=_within(16, 255))] = None,
     strict: StrictOpt = True,
@@ -243,7 +285,7 @@ def _print_info(rec: dict) -> None:
 def convert(
     input: Annotated[Path, typer.Argument(help="AMC (+ --asf), BVH or Xsens MVNX; markers (C3D, TSV, TRC, CSV); MOT/STO.")],
     output: Annotated[Path, typer.Argument(help="BVH or AMC for skeletal input; .csv/.c3d/.trc for markers; .mot/.sto/.csv for tables.")],
-    asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
+    asf: Annotated[Path | None, typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
     precision: Annotated[int, typer.Option("--precision", help="Decimals written to BVH.", callback=_within(0, 20))] = 6,
     strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: Frames: mismatch is an error (default) or is recorded.")] = True,
     max_residual: Annotated[float, typer.Option("--max-residual", help="BVH -> AMC: largest rotation (deg) the ASF's dofs may fail to express.",
@@ -320,9 +362,9 @@ def filter_cmd(
     solver: SolverOpt = Solver.exact,
     markers: MarkersOpt = None,
     columns: ColumnsOpt = None,
-    output: Annotated[Optional[Path], typer.Option("--output", "-o", help="Filtered values at the input times: CSV, or .c3d/.trc for markers.")] = None,
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="Filtered values at the input times: CSV, or .c3d/.trc for markers.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Knots and polynomial pieces as JSON.")] = False,
-    plot: Annotated[Optional[Path], typer.Option("--plot", help="PNG: position and two derivatives of the first signal.")] = None,
+    plot: Annotated[Path | None, typer.Option("--plot", help="PNG: position and two derivatives of the first signal.")] = None,
 ) -> None:
     """Filter by piecewise polynomials: keeps discontinuities (catches, throws, heel strikes)."""
     from mocapkit.jobs import filter_job
@@ -349,10 +391,10 @@ def filter_cmd(
 @app.command("filter-eval")
 def filter_eval(
     out: Annotated[Path, typer.Option("--out", help="Folder for the JSON results and figures.")] = Path("filter-out"),
-    juggling: Annotated[Optional[Path], typer.Option("--juggling", help="A marker file (Qualisys TSV, C3D, TRC, marker CSV) with thrown balls, Z up.")] = None,
-    balls: Annotated[Optional[str], typer.Option("--balls", help="Ball markers A,B,C (default: every marker that moves, see docs).")] = None,
-    controls: Annotated[Optional[str], typer.Option("--controls", help="Static control markers (default: every marker that does not move).")] = None,
-    penalty: Annotated[Optional[float], typer.Option("--penalty", help="K of Eq. 2 for the balls (default: --auto).",
+    juggling: Annotated[Path | None, typer.Option("--juggling", help="A marker file (Qualisys TSV, C3D, TRC, marker CSV) with thrown balls, Z up.")] = None,
+    balls: Annotated[str | None, typer.Option("--balls", help="Ball markers A,B,C (default: every marker that moves, see docs).")] = None,
+    controls: Annotated[str | None, typer.Option("--controls", help="Static control markers (default: every marker that does not move).")] = None,
+    penalty: Annotated[float | None, typer.Option("--penalty", help="K of Eq. 2 for the balls (default: --auto).",
                                                      callback=_within(0.0))] = None,
     unit_m: Annotated[float, typer.Option("--unit-m", help="Metres per unit of the marker file (mm: 0.001).",
                                           callback=_within(*UNIT_RANGE))] = 1e-3,
@@ -361,7 +403,13 @@ def filter_eval(
     """The filtering experiments: synthetic Figure 2 signal, step overshoot, juggling flights, timing."""
     import numpy as np
 
-    from mocapkit.evaluation.filtering import evaluate_juggling, evaluate_synthetic, exact_time_curve, figures, moving_markers
+    from mocapkit.evaluation.filtering import (
+        evaluate_juggling,
+        evaluate_synthetic,
+        exact_time_curve,
+        figures,
+        moving_markers,
+    )
     from mocapkit.io.atomic import atomic_write_text
 
     _check_output(out, folder=True, inputs=(juggling,), option="--out")
@@ -424,10 +472,10 @@ def decompress(
     points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z), radio packets (.mkp), or a compressed clip (.mkc, .glb/.gltf).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="Reconstructed CSV (.bvh for a clip).")],
     times_from: Annotated[
-        Optional[Path], typer.Option("--times-from", help="Decode at the timestamps of this original file.")
+        Path | None, typer.Option("--times-from", help="Decode at the timestamps of this original file.")
     ] = None,
     rate: Annotated[
-        Optional[float],
+        float | None,
         typer.Option(
             "--rate",
             help="Decode on a uniform grid at HZ; with --times-from, the rate of an ORIGINAL without timestamps.",
@@ -475,9 +523,9 @@ def decompress(
     err.print(f"{points}: {rec['points']} points -> {rec['samples']} samples in {output}")
 
 
-def _decompress_clip(clip: Path, output: Path, times_from: Optional[Path], rate: Optional[float]) -> None:
-    from mocapkit.io.skeletal.bvh import write_bvh
+def _decompress_clip(clip: Path, output: Path, times_from: Path | None, rate: float | None) -> None:
     from mocapkit.io.formats.gltf import read_gltf
+    from mocapkit.io.skeletal.bvh import write_bvh
 
     if output.suffix.lower() != ".bvh":
         raise InvalidParameterError(f"{output}: a skeletal clip decodes to .bvh")
@@ -491,7 +539,7 @@ def _decompress_clip(clip: Path, output: Path, times_from: Optional[Path], rate:
 @app.command()
 def stream(
     method: Annotated[
-        Optional[Method], typer.Option("--method", "-m", help="PLA method (default: fastsw, or anglesw with --max-angle).")
+        Method | None, typer.Option("--method", "-m", help="PLA method (default: fastsw, or anglesw with --max-angle).")
     ] = None,
     threshold: ThresholdOpt = None,
     max_angle: MaxAngleOpt = None,
@@ -546,8 +594,8 @@ def sweep(
     quaternion_columns: QuatColumnsOpt = None,
     scalar_last: ScalarLastOpt = False,
     time_unit: TimeUnitOpt = None,
-    asf: Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for AMC inputs.")] = None,
-    unit_cm: Annotated[Optional[list[str]], typer.Option("--unit-cm", help="NAME=CM per file (BVH has no unit).")] = None,
+    asf: Annotated[Path | None, typer.Option("--asf", help="Skeleton for AMC inputs.")] = None,
+    unit_cm: Annotated[list[str] | None, typer.Option("--unit-cm", help="NAME=CM per file (BVH has no unit).")] = None,
 ) -> None:
     """The fastSW paper's experiments: 4 methods x 205 thresholds on every sensor; CSV + figures.
 
@@ -584,9 +632,14 @@ def sweep(
 
 def _sweep_skeletal(inputs, out: Path, asf, unit_cm) -> None:
     from mocapkit.evaluation.skeletal import (
-        evaluate_motion, plot_curves, stick_figure_png, summary_table, write_rows,
+        evaluate_motion,
+        plot_curves,
+        stick_figure_png,
+        summary_table,
+        write_rows,
     )
-    from mocapkit.io.loaders import load_motion, unit_cm as find_unit
+    from mocapkit.io.loaders import load_motion
+    from mocapkit.io.loaders import unit_cm as find_unit
 
     units = {}
     for item in unit_cm or []:
@@ -653,7 +706,7 @@ def segment(
     asf: AsfOpt = None,
     method: SegMethodOpt = SegMethod.arma,
     as_json: Annotated[bool, typer.Option("--json", help="Print the cuts as JSON.")] = False,
-    plot: Annotated[Optional[Path], typer.Option("--plot", help="PNG: the 4 limb angles with the cuts.")] = None,
+    plot: Annotated[Path | None, typer.Option("--plot", help="PNG: the 4 limb angles with the cuts.")] = None,
     labels: LabelsOpt = None,
     joint: JointOpt = None,
     train: TrainOpt = None,
@@ -698,23 +751,31 @@ def segment(
 
 @app.command("segment-bench")
 def segment_bench(
-    takes: Annotated[Optional[list[str]], typer.Argument(help="Labelled takes: TAKE=LABELS pairs or folders of takes with TAKE.labels.txt beside them (default: the shared CMU set).")] = None,
-    asf: Annotated[Optional[Path], typer.Option("--asf", help="ASF skeleton for AMC takes.")] = None,
-    rate: Annotated[Optional[float], typer.Option("--rate", help="Frame rate of AMC takes (default 120 Hz).",
+    takes: Annotated[list[str] | None, typer.Argument(help="Labelled takes: TAKE=LABELS pairs or folders of takes with TAKE.labels.txt beside them (default: the shared CMU set).")] = None,
+    asf: Annotated[Path | None, typer.Option("--asf", help="ASF skeleton for AMC takes.")] = None,
+    rate: Annotated[float | None, typer.Option("--rate", help="Frame rate of AMC takes (default 120 Hz).",
                                                   callback=_within(*RATE_RANGE))] = None,
     data: Annotated[Path, typer.Option("--data", help="The shared data folder (cmu/ and tssb/).")] = Path("../shared/data"),
-    out: Annotated[Optional[Path], typer.Option("--out", help="Folder for segment_bench.json and .md.")] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="Folder for segment_bench.json and .md.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print all rows as JSON.")] = False,
     methods: Annotated[str, typer.Option("--methods", help="Comma-separated methods.")] = "auto,arma,every400,pca,kmeans,mlp,kernelcpd,pelt,clasp",
-    tssb: Annotated[Optional[bool], typer.Option("--tssb/--no-tssb", help="Also run the 75 TSSB series (default: only without TAKES).")] = None,
-    tssb_limit: Annotated[Optional[int], typer.Option("--tssb-limit", help="Only the first N TSSB series.",
+    tssb: Annotated[bool | None, typer.Option("--tssb/--no-tssb", help="Also run the 75 TSSB series (default: only without TAKES).")] = None,
+    tssb_limit: Annotated[int | None, typer.Option("--tssb-limit", help="Only the first N TSSB series.",
                                                       callback=_within(1, 1_000_000))] = None,
     known_k: Annotated[bool, typer.Option("--known-k", help="Add rows given the true number of cuts (separate mode).")] = False,
 ) -> None:
     """Every segmentation method on labelled takes (yours, or the shared CMU set) and on TSSB: RI, F1,
     Covering, seconds. Every label file is checked against its take before any segmenting."""
-    from mocapkit.evaluation.segmentation import (MOCAP_METHODS, TSSB_METHODS, find_pairs, load_user_takes, markdown,
-                                                  run_mocap, run_tssb, summarise)
+    from mocapkit.evaluation.segmentation import (
+        MOCAP_METHODS,
+        TSSB_METHODS,
+        find_pairs,
+        load_user_takes,
+        markdown,
+        run_mocap,
+        run_tssb,
+        summarise,
+    )
 
     ms = [m.strip() for m in methods.split(",") if m.strip()]
     bad = [m for m in ms if m not in MOCAP_METHODS]
@@ -758,6 +819,7 @@ from mocapkit.cli_similarity import similarity as _similarity  # noqa: E402 - im
 
 app.command("similarity")(_similarity)
 from mocapkit.cli_view import view as _view  # noqa: E402 - imports the shared options only
+
 app.command("view")(_view)
 from mocapkit.cli_verify import verify as _verify  # noqa: E402 - imports the shared options only
 

@@ -11,16 +11,47 @@ from __future__ import annotations
 import os
 import time
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
 from mocapkit.cli_options import (
-    AsfOpt, AutoOpt, ColumnsOpt, DownsampleOpt, JointOpt, MarkersOpt, MaxAngleOpt, MaxLenOpt, MaxPositionErrorOpt,
-    Method, MethodOpt, OrderOpt, PenaltyOpt, QuatColumnsOpt, RateOpt, ScalarLastOpt, SegMethod, SegMethodOpt,
-    SegRateOpt, Solver, SolverOpt, StrictOpt, TargetIcrOpt, ThresholdOpt, TimeColumnOpt, TimeUnitOpt, TrainOpt,
-    UnitCmOpt, _within, console, err, ErrorMetric, ErrorMetricOpt, GltfRotations, GltfRotationsOpt,
+    AsfOpt,
+    AutoOpt,
+    ColumnsOpt,
+    DownsampleOpt,
+    ErrorMetric,
+    ErrorMetricOpt,
+    GltfRotations,
+    GltfRotationsOpt,
+    JointOpt,
+    MarkersOpt,
+    MaxAngleOpt,
+    MaxLenOpt,
+    MaxPositionErrorOpt,
+    Method,
+    MethodOpt,
+    OrderOpt,
+    PenaltyOpt,
+    QuatColumnsOpt,
+    RateOpt,
+    ScalarLastOpt,
+    SegMethod,
+    SegMethodOpt,
+    SegRateOpt,
     ShellDistanceOpt,
+    Solver,
+    SolverOpt,
+    StrictOpt,
+    TargetIcrOpt,
+    ThresholdOpt,
+    TimeColumnOpt,
+    TimeUnitOpt,
+    TrainOpt,
+    UnitCmOpt,
+    _within,
+    console,
+    err,
 )
 from mocapkit.errors import InvalidParameterError
 
@@ -36,23 +67,23 @@ InputsArg = Annotated[list[str], typer.Argument(
     help="Files, folders (walked recursively) and quoted globs ('data/**/*.bvh') of any format mocapkit reads.")]
 OutOpt = Annotated[Path, typer.Option("--out", help="Folder for the outputs (mirroring the inputs' tree), "
                                                     "journal.jsonl and results.parquet.")]
-JobsOpt = Annotated[Optional[int], typer.Option("--jobs", "-j", help="Worker processes (default: the CPU count).",
+JobsOpt = Annotated[int | None, typer.Option("--jobs", "-j", help="Worker processes (default: the CPU count).",
                                                 callback=_within(1, 4096))]
 EngineOpt = Annotated[str, typer.Option("--engine", help="local (a process pool) or dask.")]
-SchedulerOpt = Annotated[Optional[str], typer.Option(
+SchedulerOpt = Annotated[str | None, typer.Option(
     "--scheduler", help="tcp://HOST:PORT of a running Dask scheduler (--engine dask; default: a local cluster).")]
 ResumeOpt = Annotated[bool, typer.Option(
     "--resume", help="Keep the ok rows of an earlier batch in OUT with the same job, options and file content; "
                      "run the rest.")]
-DbOpt = Annotated[Optional[str], typer.Option(
+DbOpt = Annotated[str | None, typer.Option(
     "--db", help="Also add the rows to a motion catalog: motion.duckdb or postgresql://...")]
-ManifestOpt = Annotated[Optional[Path], typer.Option(
+ManifestOpt = Annotated[Path | None, typer.Option(
     "--manifest", help="Options per file: a TOML file of [[files]] tables (glob = \"cmu/*.amc\", rate = 120, "
                        "asf = \"cmu/86.asf\"...). A TAKE.mocapkit.toml beside an input wins over it; the command's "
                        "options only fill in what a file lacks (a file's own clock or skeleton always wins).")]
 
 
-def _abs(p: Optional[Path | str]) -> Optional[str]:
+def _abs(p: Path | str | None) -> str | None:
     """A path option as an absolute string: the options are JSON (hashed, stored) and workers on a
     cluster do not share the command's working folder."""
     return None if p is None else os.path.abspath(os.fspath(p))
@@ -67,8 +98,14 @@ def _progress():
     def report(row, done, errors, n):
         if err.is_terminal:
             if "prog" not in state:
-                from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
-                                           TimeRemainingColumn)
+                from rich.progress import (
+                    BarColumn,
+                    MofNCompleteColumn,
+                    Progress,
+                    TextColumn,
+                    TimeElapsedColumn,
+                    TimeRemainingColumn,
+                )
 
                 prog = Progress(TextColumn("batch"), BarColumn(), MofNCompleteColumn(),
                                 TextColumn("{task.fields[errors]} errors"), TimeElapsedColumn(), TextColumn("ETA"),
@@ -90,8 +127,8 @@ def _progress():
     return report, close
 
 
-def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: Optional[int], engine: str,
-         scheduler: Optional[str], resume: bool, db: Optional[str], manifest: Optional[Path]) -> None:
+def _run(job: str, inputs: list[str], options: dict, out: Path, jobs: int | None, engine: str,
+         scheduler: str | None, resume: bool, db: str | None, manifest: Path | None) -> None:
     from mocapkit.batch import run_batch
     from mocapkit.batch.engine import BatchInterrupted, hold_interrupts
 
@@ -292,7 +329,7 @@ def batch_verify(
     error_metric: Annotated[str, typer.Option("--error-metric", help="joint+end, joint or shell (see mocapkit verify "
                                                                      "--help).")] = "joint+end",
     shell_distance: ShellDistanceOpt = 3.0,
-    skeletal_format: Annotated[Optional[str], typer.Option("--skeletal-format", help="glb or mkc, when both are "
+    skeletal_format: Annotated[str | None, typer.Option("--skeletal-format", help="glb or mkc, when both are "
                                                            "there.")] = None,
     unit_cm: UnitCmOpt = None,
     asf: AsfOpt = None,

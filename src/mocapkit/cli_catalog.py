@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import sys
 from enum import Enum
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 
@@ -108,16 +108,16 @@ def import_cmd(
     A file that cannot be read is reported with its error on stderr and the others go on. Exit 0 when
     at least one recording was registered, else 2.
     """
-    from mocapkit.jobs.inputs import expand_inputs
     from mocapkit.catalog import open_catalog
     from mocapkit.catalog.engine import redact
     from mocapkit.catalog.register import import_folder
+    from mocapkit.jobs.inputs import expand_inputs
 
     n = len(expand_inputs(inputs).files)  # names nothing -> one-line error before the catalog is opened
     with open_catalog(db) as cat, _progress("registering", n) as update:
         done = [0]
 
-        def on_file(path: str, error: Optional[str]) -> None:
+        def on_file(path: str, error: str | None) -> None:
             done[0] += 1
             update(done[0])
             if error is not None:

@@ -11,7 +11,7 @@ import json
 import math
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -79,7 +79,13 @@ def _progress(what: str, total: int | None = None):
     """A progress display on stderr (a bar with ETA when ``total`` is known, else a spinner with the
     elapsed time); yields ``update(done, total)``. Nothing is drawn when stderr is not a terminal."""
     from rich.progress import (
-        BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn,
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        SpinnerColumn,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
     )
 
     if not err.is_terminal:  # a log file gets no spinner frames
@@ -107,28 +113,28 @@ class Method(str, Enum):
 
 
 RateOpt = Annotated[
-    Optional[float],
+    float | None,
     typer.Option("--rate", help="Sample rate in Hz, for files without timestamps (legacy x-io, Xsens).",
                  callback=_within(*RATE_RANGE)),
 ]
 TimeColumnOpt = Annotated[
-    Optional[str], typer.Option("--time-column", help="IMU files: the name of the time column, when the guess is wrong.")
+    str | None, typer.Option("--time-column", help="IMU files: the name of the time column, when the guess is wrong.")
 ]
 QuatColumnsOpt = Annotated[
-    Optional[str],
+    str | None,
     typer.Option("--quaternion-columns", help="IMU files: the four quaternion column names in w,x,y,z order, e.g. 'W,X,Y,Z'."),
 ]
 ScalarLastOpt = Annotated[
     bool, typer.Option("--scalar-last", help="IMU files: numbered quaternion columns (q0..q3, Element 1..4) hold x,y,z,w.")
 ]
 TimeUnitOpt = Annotated[
-    Optional[str], typer.Option("--time-unit", help="IMU files: unit of the time column: s, ms, us, ns, or counter (with --rate).")
+    str | None, typer.Option("--time-unit", help="IMU files: unit of the time column: s, ms, us, ns, or counter (with --rate).")
 ]
 
 
 MethodOpt = Annotated[Method, typer.Option("--method", "-m", help="PLA method.")]
 ThresholdOpt = Annotated[
-    Optional[float],
+    float | None,
     typer.Option(
         "--threshold",
         "-t",
@@ -137,12 +143,12 @@ ThresholdOpt = Annotated[
     ),
 ]
 MaxAngleOpt = Annotated[
-    Optional[float],
+    float | None,
     typer.Option("--max-angle", help="Guarantee: every sample within DEG degrees of the SLERP decode (verified).",
                  callback=_within(0.0, 180.0, lo_open=True, hi_open=True)),
 ]
 MaxLenOpt = Annotated[
-    Optional[int],
+    int | None,
     typer.Option("--max-segment-length", callback=_within(1, MAX_SEGMENT_LENGTH),
                  help="At most N sample intervals between segment points (default: 1000 for sw and anglesw, whose "
                       "work per sample grows with the segment; unbounded for the O(1) methods)."),
@@ -150,7 +156,7 @@ MaxLenOpt = Annotated[
 
 
 
-def _check_output(path: Optional[Path], folder: bool = False, source: Optional[Path] = None, *,
+def _check_output(path: Path | None, folder: bool = False, source: Path | None = None, *,
                   inputs=(), option: str = "--output") -> None:
     """Refuse, before any work, an output (``option``) that cannot be written, is the same file as an
     input (``source`` and ``inputs``; hard links and symlinks too) or lies in an input folder
@@ -209,21 +215,21 @@ class SegMethod(str, Enum):
 
 
 # the options of the jobs (info, compress, filter, segment), shared by the single-file commands and batch
-AsfOpt = Annotated[Optional[Path], typer.Option("--asf", help="Skeleton for an AMC input.")]
+AsfOpt = Annotated[Path | None, typer.Option("--asf", help="Skeleton for an AMC input.")]
 StrictOpt = Annotated[bool, typer.Option("--strict/--no-strict",
                                          help="BVH: a Frames: count that disagrees with the data is an error "
                                               "(default) or is recorded.")]
 TargetIcrOpt = Annotated[
-    Optional[float], typer.Option("--target-icr", help="Find the threshold giving this ICR (points/samples).",
+    float | None, typer.Option("--target-icr", help="Find the threshold giving this ICR (points/samples).",
                                   callback=_within(0.0, 1.0, lo_open=True))
 ]
 MaxPositionErrorOpt = Annotated[
-    Optional[float],
+    float | None,
     typer.Option("--max-position-error", help="Skeletal input: every joint's and End Site's world position within CM (verified).",
                  callback=_within(1e-6, 1e9)),
 ]
 UnitCmOpt = Annotated[
-    Optional[float], typer.Option("--unit-cm", help="Skeletal input: centimetres per file length unit.",
+    float | None, typer.Option("--unit-cm", help="Skeletal input: centimetres per file length unit.",
                                   callback=_within(*UNIT_RANGE))
 ]
 
@@ -253,26 +259,26 @@ ShellDistanceOpt = Annotated[float, typer.Option("--shell-distance", help="Shell
                                                  callback=_within(1e-6, 1e6))]
 EntropyOpt = Annotated[str, typer.Option("--entropy", help=".mkc clip: the lossless stage, zstd (fast to decode) or "
                                          "lzma (~8 % smaller, ~2x slower to decode) or smallest (per block).")]
-BlockFramesOpt = Annotated[Optional[int], typer.Option("--block-frames", help=".mkc clip: frames per random-access "
+BlockFramesOpt = Annotated[int | None, typer.Option("--block-frames", help=".mkc clip: frames per random-access "
                                                        "block (default 512).", callback=_within(2, 1_000_000))]
 OrderOpt = Annotated[int, typer.Option("--order", help="Polynomial order of every chunk (0..10).",
                                        callback=_within(0, MAX_FILTER_ORDER))]
-PenaltyOpt = Annotated[Optional[float], typer.Option("--penalty", help="K: the cost of a knot, in signal units.",
+PenaltyOpt = Annotated[float | None, typer.Option("--penalty", help="K: the cost of a knot, in signal units.",
                                                      callback=_within(0.0))]
 AutoOpt = Annotated[bool, typer.Option("--auto", help="Choose the knot cost from the data (length-independent; see docs).")]
 SolverOpt = Annotated[Solver, typer.Option("--solver", help="exact (global optimum) or iterative (the seed's).")]
-MarkersOpt = Annotated[Optional[str], typer.Option("--markers", help="NAME[:xyz],... (knots shared by the components).")]
-ColumnsOpt = Annotated[Optional[str], typer.Option("--columns", help="CSV columns to filter, each on its own.")]
+MarkersOpt = Annotated[str | None, typer.Option("--markers", help="NAME[:xyz],... (knots shared by the components).")]
+ColumnsOpt = Annotated[str | None, typer.Option("--columns", help="CSV columns to filter, each on its own.")]
 SegMethodOpt = Annotated[SegMethod, typer.Option("--method", "-m", help="Segmentation method.")]
-LabelsOpt = Annotated[Optional[Path], typer.Option(
+LabelsOpt = Annotated[Path | None, typer.Option(
     "--labels", help="Reference labels (CMU-86 HACA or mocap6 per-frame): scored and plotted.")]
-JointOpt = Annotated[Optional[list[str]], typer.Option(
+JointOpt = Annotated[list[str] | None, typer.Option(
     "--joint", help="ROLE=JOINT overrides of the joint map (e.g. spine=Spine3).")]
-TrainOpt = Annotated[Optional[list[str]], typer.Option(
+TrainOpt = Annotated[list[str] | None, typer.Option(
     "--train", help="MOTION=LABELS takes to train --method mlp on (repeat).")]
-SegRateOpt = Annotated[Optional[float], typer.Option("--rate", help="Frame rate of an AMC file (default 120 Hz).",
+SegRateOpt = Annotated[float | None, typer.Option("--rate", help="Frame rate of an AMC file (default 120 Hz).",
                                                      callback=_within(*RATE_RANGE))]
-DownsampleOpt = Annotated[Optional[int], typer.Option(
+DownsampleOpt = Annotated[int | None, typer.Option(
     "--downsample", help="arma and auto: keep every N-th frame (default: the factor nearest to 30 Hz).",
     callback=_within(1, 1_000_000))]
 

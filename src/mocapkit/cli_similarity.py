@@ -6,13 +6,22 @@ from __future__ import annotations
 
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import Annotated
 
 import typer
 from rich.table import Table
 
-from mocapkit.cli_options import (AsfOpt, JointOpt, SegRateOpt, StrictOpt, _json, _progress, _within, console,
-                                  print_warnings)
+from mocapkit.cli_options import (
+    AsfOpt,
+    JointOpt,
+    SegRateOpt,
+    StrictOpt,
+    _json,
+    _progress,
+    _within,
+    console,
+    print_warnings,
+)
 
 
 class Limb(str, Enum):
@@ -35,19 +44,19 @@ def _range(rec_side: dict) -> str:
 def similarity(
     a: Annotated[Path, typer.Argument(metavar="A", help="First take: BVH, or AMC (with --asf or a CMU-named ASF beside it).")],
     b: Annotated[Path, typer.Argument(metavar="B", help="Second take (may be the same file with another --frames-b).")],
-    limb: Annotated[Optional[list[Limb]], typer.Option(
+    limb: Annotated[list[Limb] | None, typer.Option(
         "--limb", help="Limb angle to compare (repeat; default all four).")] = None,
     asf: AsfOpt = None,
-    frames: Annotated[Optional[str], typer.Option(
+    frames: Annotated[str | None, typer.Option(
         "--frames", help="Frames A0:A1 of the first take (0-based, A1 excluded; default all).")] = None,
-    frames_b: Annotated[Optional[str], typer.Option(
+    frames_b: Annotated[str | None, typer.Option(
         "--frames-b", help="Frames B0:B1 of the second take (default all).")] = None,
     align: Annotated[Align, typer.Option(
         "--align", help="One DTW path per limb (the paper's) or one joint path for all compared limbs.")] = Align.limb,
-    band: Annotated[Optional[int], typer.Option(
+    band: Annotated[int | None, typer.Option(
         "--band", help="Sakoe-Chiba band in samples around the diagonal (default: none).",
         callback=_within(0, 1_000_000_000))] = None,
-    resample: Annotated[Optional[int], typer.Option(
+    resample: Annotated[int | None, typer.Option(
         "--resample", help="Time-normalise both ranges to N samples before DTW (default: no).",
         callback=_within(2, 10_000_000))] = None,
     rate: SegRateOpt = None,

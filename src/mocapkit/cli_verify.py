@@ -11,9 +11,23 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from mocapkit.cli_options import (AsfOpt, MaxAngleOpt, MaxPositionErrorOpt, QuatColumnsOpt, RateOpt, ScalarLastOpt,
-                                  ShellDistanceOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, UnitCmOpt, _json,
-                                  _progress, console, print_warnings)
+from mocapkit.cli_options import (
+    AsfOpt,
+    MaxAngleOpt,
+    MaxPositionErrorOpt,
+    QuatColumnsOpt,
+    RateOpt,
+    ScalarLastOpt,
+    ShellDistanceOpt,
+    StrictOpt,
+    TimeColumnOpt,
+    TimeUnitOpt,
+    UnitCmOpt,
+    _json,
+    _progress,
+    console,
+    print_warnings,
+)
 
 #: the exit code of a verify (single or batch) that found an error beyond the given bound
 EXIT_EXCEEDED = 1

@@ -24,17 +24,17 @@ import itertools
 import os
 import time
 from collections import deque
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterator
 
-from mocapkit.jobs import batch_output
-from mocapkit.jobs.inputs import expand_inputs, output_bases
-from mocapkit.batch.output_guard import OutputGuard
 from mocapkit.batch.journal import JOURNAL_NAME, Journal, read_journal
+from mocapkit.batch.output_guard import OutputGuard
 from mocapkit.batch.results import RESULTS_NAME, read_results, write_results
 from mocapkit.batch.worker import configure_numba_cache, failed_row, ignore_interrupts, options_hash, run_one
 from mocapkit.errors import InvalidParameterError, MocapError, error_line
+from mocapkit.jobs import batch_output
+from mocapkit.jobs.inputs import expand_inputs, output_bases
 
 ENGINES = ("local", "dask")
 #: a compress job's controls (one per input: a batch may give them per kind or per file)
@@ -152,8 +152,8 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
     options hash match, and runs the rest. Every usage error (a bad manifest or sidecar too) is raised
     before any work.
     """
-    from mocapkit.jobs import check_options as check_job_options
     from mocapkit.batch.file_options import load_manifest
+    from mocapkit.jobs import check_options as check_job_options
 
     t0 = time.perf_counter()
     check_options(job, engine, jobs, scheduler)

@@ -270,7 +270,7 @@ class FileOptions:
     files: list[str] = field(default_factory=list)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _job_keys(job: str) -> frozenset[str]:
     import inspect
 

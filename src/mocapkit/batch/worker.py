@@ -13,7 +13,7 @@ import json
 import os
 import sys
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 from mocapkit.errors import error_line  # noqa: F401 - the rows' one-line errors
@@ -95,7 +95,7 @@ def new_row(job: str, path: str | os.PathLike[str], options: dict) -> dict:
     return {"job": job, "input": os.fspath(path), "status": "error", "error": None, "content_hash": None,
             "options_json": options_json(options), "options_hash": options_hash(options),
             "mocapkit_version": _version(),
-            "started_at": datetime.now(timezone.utc).isoformat(timespec="microseconds"),
+            "started_at": datetime.now(UTC).isoformat(timespec="microseconds"),
             "seconds": 0.0, "record_json": None}
 
 

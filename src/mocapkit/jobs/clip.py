@@ -18,8 +18,9 @@ def compress_clip_job(path: Path, output: Path, *, max_position_error: float | N
     every metric as measured by decoding the written bytes."""
     from mocapkit.clip import DEFAULT_BLOCK_FRAMES, encode_clip
     from mocapkit.clip.metric import check_metric
-    from mocapkit.io.loaders import load_motion, unit_cm as find_unit
     from mocapkit.io.formats.mkc import write_mkc
+    from mocapkit.io.loaders import load_motion
+    from mocapkit.io.loaders import unit_cm as find_unit
 
     check_metric(error_metric)
     from mocapkit.clip.codec import ENTROPY

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import contextlib
 import os
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable, ContextManager, Optional
+from typing import ContextManager
 
 #: ``progress(what, total)`` -> a context manager yielding ``update(done, total=None)``
-Progress = Callable[[str, Optional[int]], ContextManager[Callable[..., None]]]
+Progress = Callable[[str, int | None], ContextManager[Callable[..., None]]]
 
 
 @contextlib.contextmanager
@@ -50,7 +51,7 @@ def output_entry(path: Path, fmt: str, bound: float | None = None, bound_unit: s
     return {"path": str(p), "bytes": size, "format": fmt, "bound": bound, "bound_unit": bound_unit}
 
 
-def check_outputs(path: Path, *outputs: tuple[Optional[Path], str], inputs=(), folder: bool = False) -> None:
+def check_outputs(path: Path, *outputs: tuple[Path | None, str], inputs=(), folder: bool = False) -> None:
     """Refuse, before any work, outputs that cannot be written or would overwrite an input
     (:func:`mocapkit.io.atomic.check_output`); ``outputs`` are ``(path, option name)`` pairs. The files
     read implicitly with the inputs (:func:`mocapkit.io.loaders.companions`) are inputs too."""

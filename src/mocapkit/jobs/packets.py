@@ -106,8 +106,8 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
     from mocapkit.io import write_signal_csv
     from mocapkit.io.atomic import atomic_write_text, is_device_or_pipe
     from mocapkit.io.imu.signals import format_row
-    from mocapkit.pla.packet_layout import MIN_STEP
     from mocapkit.jobs.readers import read_mkp
+    from mocapkit.pla.packet_layout import MIN_STEP
 
     path, output = Path(path), Path(output)
     pf = read_mkp(path)

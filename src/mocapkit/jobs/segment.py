@@ -65,8 +65,8 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
     against ``labels``; ``labels_beside``: the take's ``<stem>.labels.txt`` when there is one, as a database
     such as CMU's keeps them). ``output`` is unused (the cuts are the record); ``plot``: a PNG of the limb angles
     with the cuts."""
-    from mocapkit.io.skeletal.labels import read_reference
     from mocapkit.io.loaders import load_motion
+    from mocapkit.io.skeletal.labels import read_reference
     from mocapkit.segment.features import LIMB_NAMES, motion_features, pose_features
 
     check_options(method, train, joint, downsample)
