@@ -109,7 +109,8 @@ def main() -> None:
     result = summary(measure(args.repeats))
     load_after = os.getloadavg()
     result["machine"] = {
-        "python": platform.python_version(), "interpreter": sys.executable, "platform": platform.platform(), "cpus": os.cpu_count(),
+        "python": platform.python_version(), "interpreter": sys.executable, "platform": platform.platform(),
+        "cpus": os.cpu_count(),
         "load_average_1_5_15_before": [round(x, 2) for x in load_before],
         "load_average_1_5_15_after": [round(x, 2) for x in load_after],
         "uptime_before": uptime_before,

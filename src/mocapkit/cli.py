@@ -112,7 +112,9 @@ def _summary_table(records: list[dict], title: str) -> Table:
 
 @app.command()
 def compress(
-    input: Annotated[Path, typer.Argument(help="An IMU file or a folder of sensors; or a skeleton (BVH, AMC, MVNX, .mkc).")],
+    input: Annotated[
+        Path, typer.Argument(help="An IMU file or a folder of sensors; or a skeleton (BVH, AMC, MVNX, .mkc).")
+    ],
     output: Annotated[
         Path | None, typer.Option("--output", "-o", help="Points CSV (a folder when INPUT is a folder).")
     ] = None,
@@ -208,7 +210,8 @@ def compress(
 
 
 def _clip_table(rec: dict, input: Path) -> None:
-    tab = Table(title=f"{input.name} -> {rec['output']}: {rec['error_metric']} error <= {rec['max_position_error_cm']:g} cm")
+    tab = Table(title=f"{input.name} -> {rec['output']}: {rec['error_metric']} error "
+                      f"<= {rec['max_position_error_cm']:g} cm")
     tab.add_column("quantity")
     tab.add_column("value", justify="right")
     for k in ("frames", "joints", "keyframes", "blocks", "max_joint_error_cm", "max_shell_error_cm",
@@ -283,13 +286,25 @@ def _print_info(rec: dict) -> None:
 
 @app.command()
 def convert(
-    input: Annotated[Path, typer.Argument(help="AMC (+ --asf), BVH or Xsens MVNX; markers (C3D, TSV, TRC, CSV); MOT/STO.")],
-    output: Annotated[Path, typer.Argument(help="BVH or AMC for skeletal input; .csv/.c3d/.trc for markers; .mot/.sto/.csv for tables.")],
+    input: Annotated[
+        Path, typer.Argument(help="AMC (+ --asf), BVH or Xsens MVNX; markers (C3D, TSV, TRC, CSV); MOT/STO.")
+    ],
+    output: Annotated[
+        Path,
+        typer.Argument(help="BVH or AMC for skeletal input; .csv/.c3d/.trc for markers; .mot/.sto/.csv for tables."),
+    ],
     asf: Annotated[Path | None, typer.Option("--asf", help="Skeleton for an AMC input.")] = None,
-    precision: Annotated[int, typer.Option("--precision", help="Decimals written to BVH.", callback=_within(0, 20))] = 6,
-    strict: Annotated[bool, typer.Option("--strict/--no-strict", help="BVH: Frames: mismatch is an error (default) or is recorded.")] = True,
-    max_residual: Annotated[float, typer.Option("--max-residual", help="BVH -> AMC: largest rotation (deg) the ASF's dofs may fail to express.",
-                                                          callback=_within(0.0, 180.0))] = 0.1,
+    precision: Annotated[
+        int, typer.Option("--precision", help="Decimals written to BVH.", callback=_within(0, 20))
+    ] = 6,
+    strict: Annotated[
+        bool, typer.Option("--strict/--no-strict", help="BVH: Frames: mismatch is an error (default) or is recorded.")
+    ] = True,
+    max_residual: Annotated[
+        float,
+        typer.Option("--max-residual", help="BVH -> AMC: largest rotation (deg) the ASF's dofs may fail to express.",
+                     callback=_within(0.0, 180.0)),
+    ] = 0.1,
 ) -> None:
     """Convert AMC (with its ASF) to BVH and back (BVH + --asf to AMC); markers (C3D, TSV, TRC, Vicon CSV)
     to CSV, C3D or TRC; OpenSim MOT/STO to MOT, STO or CSV."""
@@ -362,9 +377,14 @@ def filter_cmd(
     solver: SolverOpt = Solver.exact,
     markers: MarkersOpt = None,
     columns: ColumnsOpt = None,
-    output: Annotated[Path | None, typer.Option("--output", "-o", help="Filtered values at the input times: CSV, or .c3d/.trc for markers.")] = None,
+    output: Annotated[
+        Path | None,
+        typer.Option("--output", "-o", help="Filtered values at the input times: CSV, or .c3d/.trc for markers."),
+    ] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Knots and polynomial pieces as JSON.")] = False,
-    plot: Annotated[Path | None, typer.Option("--plot", help="PNG: position and two derivatives of the first signal.")] = None,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="PNG: position and two derivatives of the first signal.")
+    ] = None,
 ) -> None:
     """Filter by piecewise polynomials: keeps discontinuities (catches, throws, heel strikes)."""
     from mocapkit.jobs import filter_job
@@ -391,14 +411,24 @@ def filter_cmd(
 @app.command("filter-eval")
 def filter_eval(
     out: Annotated[Path, typer.Option("--out", help="Folder for the JSON results and figures.")] = Path("filter-out"),
-    juggling: Annotated[Path | None, typer.Option("--juggling", help="A marker file (Qualisys TSV, C3D, TRC, marker CSV) with thrown balls, Z up.")] = None,
-    balls: Annotated[str | None, typer.Option("--balls", help="Ball markers A,B,C (default: every marker that moves, see docs).")] = None,
-    controls: Annotated[str | None, typer.Option("--controls", help="Static control markers (default: every marker that does not move).")] = None,
+    juggling: Annotated[
+        Path | None,
+        typer.Option("--juggling", help="A marker file (Qualisys TSV, C3D, TRC, marker CSV) with thrown balls, Z up."),
+    ] = None,
+    balls: Annotated[
+        str | None, typer.Option("--balls", help="Ball markers A,B,C (default: every marker that moves, see docs).")
+    ] = None,
+    controls: Annotated[
+        str | None,
+        typer.Option("--controls", help="Static control markers (default: every marker that does not move)."),
+    ] = None,
     penalty: Annotated[float | None, typer.Option("--penalty", help="K of Eq. 2 for the balls (default: --auto).",
                                                      callback=_within(0.0))] = None,
     unit_m: Annotated[float, typer.Option("--unit-m", help="Metres per unit of the marker file (mm: 0.001).",
                                           callback=_within(*UNIT_RANGE))] = 1e-3,
-    sizes: Annotated[str, typer.Option("--sizes", help="Signal lengths for the exact solver's time curve ('' to skip).")] = "1000,2000,5000,10000,20000,50000",
+    sizes: Annotated[
+        str, typer.Option("--sizes", help="Signal lengths for the exact solver's time curve ('' to skip).")
+    ] = "1000,2000,5000,10000,20000,50000",
 ) -> None:
     """The filtering experiments: synthetic Figure 2 signal, step overshoot, juggling flights, timing."""
     import numpy as np
@@ -469,7 +499,11 @@ def filter_eval(
 
 @app.command()
 def decompress(
-    points: Annotated[Path, typer.Argument(help="Segment points CSV (time,w,x,y,z), radio packets (.mkp), or a compressed clip (.mkc, .glb/.gltf).")],
+    points: Annotated[
+        Path,
+        typer.Argument(help="Segment points CSV (time,w,x,y,z), radio packets (.mkp), or a compressed clip "
+                            "(.mkc, .glb/.gltf)."),
+    ],
     output: Annotated[Path, typer.Option("--output", "-o", help="Reconstructed CSV (.bvh for a clip).")],
     times_from: Annotated[
         Path | None, typer.Option("--times-from", help="Decode at the timestamps of this original file.")
@@ -555,7 +589,8 @@ def stream(
     from mocapkit.pla import Encoder
 
     if (threshold is None) == (max_angle is None):
-        raise InvalidParameterError("give exactly one of --threshold or --max-angle (a target ICR needs the whole signal)")
+        raise InvalidParameterError("give exactly one of --threshold or --max-angle "
+                                    "(a target ICR needs the whole signal)")
     m = method.value if method is not None else ("anglesw" if max_angle is not None else "fastsw")
     if m == "optimal":
         raise InvalidParameterError("method 'optimal' is offline (it needs the whole signal); stream with anglesw")
@@ -567,7 +602,7 @@ def stream(
     out = sys.stdout
 
     def emit(points) -> None:
-        for t, vals in zip(points.times.tolist(), points.values.tolist()):
+        for t, vals in zip(points.times.tolist(), points.values.tolist(), strict=True):
             row = (t, *vals)
             if not all(math.isfinite(v) for v in row):  # an extrapolated point (cplr, swing) out of range
                 raise MocapError(f"<stdin>: the segment point at time {t!r} is not finite {tuple(row)!r}; "
@@ -578,7 +613,8 @@ def stream(
 
     out.write("time,w,x,y,z\n")
     out.flush()
-    run_stream(sys.stdin, enc, emit, "<stdin>", rate, **_columns(time_column, quaternion_columns, scalar_last, time_unit))
+    run_stream(sys.stdin, enc, emit, "<stdin>", rate,
+               **_columns(time_column, quaternion_columns, scalar_last, time_unit))
 
 
 @app.command()
@@ -714,7 +750,8 @@ def segment(
     downsample: DownsampleOpt = None,
     strict: StrictOpt = True,
 ) -> None:
-    """Cut a take into actions from its limb-bone angles (auto: the number of actions found without being told; the ARMA method; or a baseline)."""
+    # one line: the command list of `mocapkit --help` keeps a docstring's line breaks
+    """Cut a take into actions from its limb-bone angles (auto: the number of actions found without being told; the ARMA method; or a baseline)."""  # noqa: E501
     from mocapkit.jobs import segment_job
 
     rec = segment_job(input, asf=asf, method=method.value, labels=labels, joint=joint, train=train, rate=rate,
@@ -751,18 +788,30 @@ def segment(
 
 @app.command("segment-bench")
 def segment_bench(
-    takes: Annotated[list[str] | None, typer.Argument(help="Labelled takes: TAKE=LABELS pairs or folders of takes with TAKE.labels.txt beside them (default: the shared CMU set).")] = None,
+    takes: Annotated[
+        list[str] | None,
+        typer.Argument(help="Labelled takes: TAKE=LABELS pairs or folders of takes with TAKE.labels.txt beside them "
+                            "(default: the shared CMU set)."),
+    ] = None,
     asf: Annotated[Path | None, typer.Option("--asf", help="ASF skeleton for AMC takes.")] = None,
     rate: Annotated[float | None, typer.Option("--rate", help="Frame rate of AMC takes (default 120 Hz).",
                                                   callback=_within(*RATE_RANGE))] = None,
-    data: Annotated[Path, typer.Option("--data", help="The shared data folder (cmu/ and tssb/).")] = Path("../shared/data"),
+    data: Annotated[
+        Path, typer.Option("--data", help="The shared data folder (cmu/ and tssb/).")
+    ] = Path("../shared/data"),
     out: Annotated[Path | None, typer.Option("--out", help="Folder for segment_bench.json and .md.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print all rows as JSON.")] = False,
-    methods: Annotated[str, typer.Option("--methods", help="Comma-separated methods.")] = "auto,arma,every400,pca,kmeans,mlp,kernelcpd,pelt,clasp",
-    tssb: Annotated[bool | None, typer.Option("--tssb/--no-tssb", help="Also run the 75 TSSB series (default: only without TAKES).")] = None,
+    methods: Annotated[
+        str, typer.Option("--methods", help="Comma-separated methods.")
+    ] = "auto,arma,every400,pca,kmeans,mlp,kernelcpd,pelt,clasp",
+    tssb: Annotated[
+        bool | None, typer.Option("--tssb/--no-tssb", help="Also run the 75 TSSB series (default: only without TAKES).")
+    ] = None,
     tssb_limit: Annotated[int | None, typer.Option("--tssb-limit", help="Only the first N TSSB series.",
                                                       callback=_within(1, 1_000_000))] = None,
-    known_k: Annotated[bool, typer.Option("--known-k", help="Add rows given the true number of cuts (separate mode).")] = False,
+    known_k: Annotated[
+        bool, typer.Option("--known-k", help="Add rows given the true number of cuts (separate mode).")
+    ] = False,
 ) -> None:
     """Every segmentation method on labelled takes (yours, or the shared CMU set) and on TSSB: RI, F1,
     Covering, seconds. Every label file is checked against its take before any segmenting."""

@@ -68,7 +68,7 @@ def query(
     with open_catalog(db, read_only=True) as cat, cat.read(sql) as (cols, chunks):
         if fmt is Format.json:
             keys = printing.json_keys(cols)
-            renamed = [f"{c} -> {k}" for c, k in zip(cols, keys) if c != k]
+            renamed = [f"{c} -> {k}" for c, k in zip(cols, keys, strict=True) if c != k]
             if renamed:
                 err.print(f"note: columns of one name get JSON keys {', '.join(renamed)}", markup=False,
                           highlight=False, soft_wrap=True)

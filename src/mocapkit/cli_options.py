@@ -122,13 +122,16 @@ TimeColumnOpt = Annotated[
 ]
 QuatColumnsOpt = Annotated[
     str | None,
-    typer.Option("--quaternion-columns", help="IMU files: the four quaternion column names in w,x,y,z order, e.g. 'W,X,Y,Z'."),
+    typer.Option("--quaternion-columns",
+                 help="IMU files: the four quaternion column names in w,x,y,z order, e.g. 'W,X,Y,Z'."),
 ]
 ScalarLastOpt = Annotated[
-    bool, typer.Option("--scalar-last", help="IMU files: numbered quaternion columns (q0..q3, Element 1..4) hold x,y,z,w.")
+    bool,
+    typer.Option("--scalar-last", help="IMU files: numbered quaternion columns (q0..q3, Element 1..4) hold x,y,z,w."),
 ]
 TimeUnitOpt = Annotated[
-    str | None, typer.Option("--time-unit", help="IMU files: unit of the time column: s, ms, us, ns, or counter (with --rate).")
+    str | None,
+    typer.Option("--time-unit", help="IMU files: unit of the time column: s, ms, us, ns, or counter (with --rate)."),
 ]
 
 
@@ -225,7 +228,8 @@ TargetIcrOpt = Annotated[
 ]
 MaxPositionErrorOpt = Annotated[
     float | None,
-    typer.Option("--max-position-error", help="Skeletal input: every joint's and End Site's world position within CM (verified).",
+    typer.Option("--max-position-error",
+                 help="Skeletal input: every joint's and End Site's world position within CM (verified).",
                  callback=_within(1e-6, 1e9)),
 ]
 UnitCmOpt = Annotated[
@@ -265,7 +269,9 @@ OrderOpt = Annotated[int, typer.Option("--order", help="Polynomial order of ever
                                        callback=_within(0, MAX_FILTER_ORDER))]
 PenaltyOpt = Annotated[float | None, typer.Option("--penalty", help="K: the cost of a knot, in signal units.",
                                                      callback=_within(0.0))]
-AutoOpt = Annotated[bool, typer.Option("--auto", help="Choose the knot cost from the data (length-independent; see docs).")]
+AutoOpt = Annotated[
+    bool, typer.Option("--auto", help="Choose the knot cost from the data (length-independent; see docs).")
+]
 SolverOpt = Annotated[Solver, typer.Option("--solver", help="exact (global optimum) or iterative (the seed's).")]
 MarkersOpt = Annotated[str | None, typer.Option("--markers", help="NAME[:xyz],... (knots shared by the components).")]
 ColumnsOpt = Annotated[str | None, typer.Option("--columns", help="CSV columns to filter, each on its own.")]

@@ -42,7 +42,9 @@ def _range(rec_side: dict) -> str:
 
 
 def similarity(
-    a: Annotated[Path, typer.Argument(metavar="A", help="First take: BVH, or AMC (with --asf or a CMU-named ASF beside it).")],
+    a: Annotated[
+        Path, typer.Argument(metavar="A", help="First take: BVH, or AMC (with --asf or a CMU-named ASF beside it).")
+    ],
     b: Annotated[Path, typer.Argument(metavar="B", help="Second take (may be the same file with another --frames-b).")],
     limb: Annotated[list[Limb] | None, typer.Option(
         "--limb", help="Limb angle to compare (repeat; default all four).")] = None,
@@ -75,7 +77,8 @@ def similarity(
     if as_json:
         print(_json(rec, f"{a} {b}: similarity --json"))
         return
-    tab = Table(title=f"{_range(rec['a'])} vs {_range(rec['b'])}: DTW per {'limb' if rec['align'] == 'limb' else 'joint path'}"
+    per = "limb" if rec["align"] == "limb" else "joint path"
+    tab = Table(title=f"{_range(rec['a'])} vs {_range(rec['b'])}: DTW per {per}"
                       + (f", band {rec['band']}" if rec["band"] is not None else "")
                       + (f", resampled to {rec['resample']}" if rec["resample"] is not None else ""))
     for col in ("limb", "r (Eq. 9)", "similarity %", "DTW distance ° (Eq. 5)", "K"):

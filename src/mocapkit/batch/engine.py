@@ -20,6 +20,7 @@ Engines (both yield rows as inputs finish):
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
 import time
@@ -425,10 +426,8 @@ def _pool(n: int, ctx):
 def _stop(pool) -> None:
     """Kill a pool's workers at once (their inputs are not journaled and run again on ``--resume``)."""
     for p in list((getattr(pool, "_processes", None) or {}).values()):
-        try:
+        with contextlib.suppress(OSError, AttributeError):
             p.kill()
-        except (OSError, AttributeError):
-            pass
     pool.shutdown(wait=False, cancel_futures=True)
 
 

@@ -10,9 +10,10 @@ folder, to reading options and bounds::
 
 A sidecar ``TAKE.mocapkit.toml`` beside ``TAKE.amc`` (beside the folder ``TAKE/`` of a sensor folder) holds
 the same keys at its top level, paths relative to its own folder; it is found without being named and is
-not an input itself (inputs of one folder with the same stem share it). Keys (:data:`KEYS`): ``rate``, ``asf``, ``unit_cm``, ``time_column``,
-``quaternion_columns``, ``scalar_last``, ``time_unit``, ``strict``, and the bounds ``max_angle`` (IMU data)
-and ``max_position_error`` (skeletons). A key the job does not take is not used by it.
+not an input itself (inputs of one folder with the same stem share it). Keys (:data:`KEYS`): ``rate``,
+``asf``, ``unit_cm``, ``time_column``, ``quaternion_columns``, ``scalar_last``, ``time_unit``, ``strict``,
+and the bounds ``max_angle`` (IMU data) and ``max_position_error`` (skeletons). A key the job does not take
+is not used by it.
 
 Precedence, key by key: the sidecar, then the manifest (the last matching entry), then the command's
 option. Above all of them, what the file states itself: the frame time and skeleton of a BVH, MVNX or
@@ -20,10 +21,10 @@ option. Above all of them, what the file states itself: the frame time and skele
 makes needless is not used, and the row's record says so in a warning (never an error row, never an
 override). The command's ``--unit-cm`` is used for a skeleton whose unit the file does not give (BVH); a
 per-file ``unit_cm`` is used as given. Column options (``time_column``...) correct how a header is read,
-whoever gives them: the command's apply to every IMU text file. An option that is not for the input's kind (``--asf`` for IMU data)
-is not used; given per file, with a warning. In ``compress``, each kind takes its own bound: IMU data
-``max_angle``, skeletons ``max_position_error``, so one batch may carry both; a per-file bound replaces the
-command's ``--threshold``/``--target-icr`` for that file.
+whoever gives them: the command's apply to every IMU text file. An option that is not for the input's
+kind (``--asf`` for IMU data) is not used; given per file, with a warning. In ``compress``, each kind takes
+its own bound: IMU data ``max_angle``, skeletons ``max_position_error``, so one batch may carry both; a
+per-file bound replaces the command's ``--threshold``/``--target-icr`` for that file.
 
 Every manifest and sidecar is checked before any work: an unknown key, a wrong type, a value out of range,
 an ``asf`` that is not a readable regular file, a glob that matches nothing is one

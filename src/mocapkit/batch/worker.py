@@ -8,6 +8,7 @@ error the single-file command prints (after ``error:``). The row's fields are de
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -110,10 +111,9 @@ def _drop_empty_folder(output) -> None:
     """A failed input leaves no empty output folder behind (``batch_output`` makes the folder of a
     compressed IMU file's points before the job runs); files are never removed."""
     if output is not None and Path(output).is_dir() and not Path(output).is_symlink():
-        try:
+        # not empty: the job wrote something before failing; kept as it is
+        with contextlib.suppress(OSError):
             Path(output).rmdir()
-        except OSError:  # not empty: the job wrote something before failing; kept as it is
-            pass
 
 
 def run_one(job: str, path: str | os.PathLike[str], options: dict, out_base: str | os.PathLike[str] | None,

@@ -36,4 +36,5 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
 
 
-__all__ = ["DEFAULT_BLOCK_FRAMES", "DEFAULT_SHELL_CM", "METRICS", "Clip", "EncodedClip", "encode_clip", "position_errors"]
+__all__ = ["DEFAULT_BLOCK_FRAMES", "DEFAULT_SHELL_CM", "METRICS", "Clip", "EncodedClip", "encode_clip",
+           "position_errors"]

@@ -164,7 +164,8 @@ def batch_output(job: str, path: str | Path, options: dict, base: str | Path, ma
     (``make=False``: only the path):
     ``base`` is ``OUT/<relative folder>/<input stem>``. Compressed IMU points go to the folder
     ``<base>.points`` (one CSV per sensor, whatever the number of sensors), a compressed skeleton to
-    ``<base>.glb`` (``<base>.mkc`` with the option ``skeletal_format="mkc"``), filtered values to ``<base>.filtered.csv`` (``.filtered.c3d`` for a C3D input);
+    ``<base>.glb`` (``<base>.mkc`` with the option ``skeletal_format="mkc"``), filtered values to
+    ``<base>.filtered.csv`` (``.filtered.c3d`` for a C3D input);
     ``info`` and ``segment`` write nothing (their record is the result); ``verify`` writes nothing and reads
     what a ``compress`` batch wrote for ``path`` under ``options["compressed_dir"]``
     (:func:`mocapkit.jobs.verify.compressed_output`), which it gets as its ``output``."""

@@ -41,7 +41,8 @@ def compress_clip_job(path: Path, output: Path, *, max_position_error: float | N
     write_mkc(output, enc.data)
     r = enc.report
     rec = {"job": "compress", "file": str(path), "kind": "skeletal", "method": "mkc", "mode": "max_position_error",
-           "error_metric": error_metric, "entropy": entropy, "max_position_error_cm": max_position_error, "shell_distance_cm": shell_distance,
+           "error_metric": error_metric, "entropy": entropy, "max_position_error_cm": max_position_error,
+           "shell_distance_cm": shell_distance,
            "unit_cm": ucm, "unit_cm_assumed": assumed,
            **{k: r[k] for k in ("bytes", "frames", "joints", "blocks", "keyframes", "tracks", "default_tracks",
                                 "repair_rounds", "repaired_track_blocks", "encode_s", "bytes_raw_float32", "ratio")},
@@ -61,7 +62,10 @@ def clip_fields(path: Path) -> dict:
     i = open_clip(path).info()
     b = i.get("bound") or {}
     u = i.get("unit_cm")
-    cm = (lambda v: None if v is None or u is None else v * u)
+
+    def cm(v: float | None) -> float | None:
+        return None if v is None or u is None else v * u
+
     return {"clip_bytes": i["bytes"], "clip_blocks": i["blocks"], "clip_keyframes": i["keyframes"],
             "clip_error_metric": b.get("metric"), "clip_bound_cm": cm(b.get("value")),
             "clip_shell_distance_cm": cm(b.get("shell_distance")), "unit_cm": u,

@@ -11,11 +11,11 @@ from __future__ import annotations
 import contextlib
 import os
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from pathlib import Path
-from typing import ContextManager
 
 #: ``progress(what, total)`` -> a context manager yielding ``update(done, total=None)``
-Progress = Callable[[str, int | None], ContextManager[Callable[..., None]]]
+Progress = Callable[[str, int | None], AbstractContextManager[Callable[..., None]]]
 
 
 @contextlib.contextmanager

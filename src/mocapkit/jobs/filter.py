@@ -128,7 +128,7 @@ def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto
             update(i + 1)
     if all(r is None for *_, r in results):
         raise InvalidParameterError(f"{path}: no signal could be filtered ({'; '.join(warnings)})")
-    for name, t, Y, comps, r in results:
+    for name, _t, _Y, _comps, r in results:
         for a, b in (r.unfitted if r is not None else []):
             warnings.append(f"{name}: samples at {a:g}..{b:g} s lie between long gaps and are too few to "
                             f"fit with order {order}: left out (NaN in the output)")
@@ -145,7 +145,7 @@ def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto
         mk = loaded
         pos = np.array(mk.positions)
         done = []
-        for name, t, Y, comps, r in results:
+        for _name, t, Y, comps, r in results:
             j = mk.labels.index(comps[0][:-2])
             pos[:, j] = np.where(np.isnan(Y), np.nan, filtered(t, Y, r))
             done.append(j)
@@ -168,7 +168,7 @@ def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto
                           + "\n".join(",".join(repr(float(v)) for v in row) for row in body) + "\n")
         outputs.append(output_entry(output, "csv"))
     recs = []
-    for name, t, Y, comps, r in results:
+    for name, _t, Y, comps, r in results:
         D = Y.shape[1]
         if r is None:
             recs.append({"name": name, "components": comps, "order": order, "error": "not filtered"})

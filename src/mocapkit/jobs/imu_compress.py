@@ -93,7 +93,7 @@ def compress_imu(path: Path, options: ImuCompressOptions, *, output: Path | None
             outputs.append(output_entry(dest, "csv", bound, unit))
         elif points_stream is not None and not folder_mode:
             points_stream.write("time,w,x,y,z\n")
-            for t, v in zip(comp.times.tolist(), comp.values.tolist()):
+            for t, v in zip(comp.times.tolist(), comp.values.tolist(), strict=True):
                 points_stream.write(",".join(repr(x) for x in (t, *v)) + "\n")
     for sig in signals.values():
         for w in sig.meta.get("warnings", []):

@@ -4,8 +4,9 @@ list of recordings.
 A recording is a file whose suffix one of the readers knows (:data:`input_suffixes`). Companion files are
 not inputs: an ASF skeleton belongs to the AMC takes beside it (the AMC job finds ``<stem>.asf`` or
 ``<subject>.asf``, CMU naming, or is given ``--asf``) and ``TAKE.labels.txt`` holds a take's reference
-labels and ``TAKE.mocapkit.toml`` its reading options in a batch (:mod:`mocapkit.batch.file_options`). Hidden files and folders (a name starting with ``.``) and the batch's own output folder are
-never entered. Every skipped file that is not hidden is reported with its reason.
+labels and ``TAKE.mocapkit.toml`` its reading options in a batch (:mod:`mocapkit.batch.file_options`).
+Hidden files and folders (a name starting with ``.``) and the batch's own output folder are never entered.
+Every skipped file that is not hidden is reported with its reason.
 """
 
 from __future__ import annotations

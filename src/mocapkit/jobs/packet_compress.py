@@ -77,7 +77,7 @@ def compress_packets(path: Path, options: PacketCompressOptions, *, output: Path
             pk = packetise(sig.values, max_angle, bits=bits, packet_bytes=packet_bytes, max_segment_length=maxlen,
                            sensor=sid, precision=precision)
             at = sig.times[np.minimum(pk.sent_at, len(sig) - 1)]
-            sent.extend((float(t), sid, k, p) for k, (t, p) in enumerate(zip(at, pk.packets)))
+            sent.extend((float(t), sid, k, p) for k, (t, p) in enumerate(zip(at, pk.packets, strict=True)))
             per.append(pk)
             update(sid + 1)
     sent.sort(key=lambda x: (x[0], x[1], x[2]))
@@ -86,7 +86,7 @@ def compress_packets(path: Path, options: PacketCompressOptions, *, output: Path
     write_mkp(output, data)
     back = read_mkp(output) if not is_device_or_pipe(output) else read_mkp(output, data=data)
     records: list[dict] = []
-    for (name, sig), pk in zip(signals.items(), per):
+    for (name, sig), pk in zip(signals.items(), per, strict=True):
         s = back.streams[name]
         if not (np.array_equal(s.ticks, pk.ticks) and np.array_equal(s.codes, pk.codes)) or back.lost_packets:
             raise BoundViolationError(f"{output}: {name}: the file does not give back the points the packetiser sent")

@@ -46,7 +46,7 @@ def decode_at(ticks: np.ndarray, values: np.ndarray, gap_before: np.ndarray, u: 
         return keep, np.empty((0, 4))
     starts = np.flatnonzero(gap_before).tolist()
     bounds = sorted(set([0] + starts + [len(ticks)]))
-    for a, b in zip(bounds[:-1], bounds[1:]):
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
         lo, hi = float(ticks[a]), float(ticks[b - 1])
         i0, i1 = np.searchsorted(u, lo, "left"), np.searchsorted(u, hi, "right")
         if i1 > i0:
@@ -138,7 +138,7 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
         if originals is None and rate is None:  # the clock is the tick column; time = t0 + tick / rate
             rows = [format_row(t, v) + f",{int(k)},{int(g)}" for t, k, v, g in
                     zip(s.sensor.nominal_times(s.ticks).tolist(), s.ticks.tolist(), values.tolist(),
-                        s.gap_before.tolist())]
+                        s.gap_before.tolist(), strict=True)]
             written[name] = ("points", ",".join(POINT_COLUMNS) + "\n" + "".join(x + "\n" for x in rows))
             records.append(rec)
             continue
@@ -179,7 +179,8 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
         else:
             write_signal_csv(dest, what[1], what[2])
         outputs.append(output_entry(dest, "csv"))
-    return {"job": "decompress", "file": str(path), "kind": "imu", "mode": "points" if originals is None and rate is None
-            else "samples", "bits": pf.header.bits, "max_angle": pf.header.max_angle_deg,
+    return {"job": "decompress", "file": str(path), "kind": "imu",
+            "mode": "points" if originals is None and rate is None else "samples",
+            "bits": pf.header.bits, "max_angle": pf.header.max_angle_deg,
             "lost_packets": pf.lost_packets, "damaged_packets": len(pf.damaged), "losses": pf.losses(),
             "sensors": records, "outputs": outputs, "warnings": warnings}

@@ -153,5 +153,6 @@ def _decode(points: Path, pts, clock: tuple[np.ndarray, np.ndarray]) -> np.ndarr
         raise InvalidParameterError(f"{points}: {e}") from None
     norms = np.sqrt(np.einsum("ij,ij->i", vals, vals)) if len(vals) else np.ones(0)
     if not (np.all(np.isfinite(vals)) and np.all(np.abs(norms - 1.0) < 1e-9)):  # never a zero-norm or NaN row
-        raise MocapError(f"{points}: the decoded quaternions are not all finite unit quaternions (a bug: please report)")
+        raise MocapError(f"{points}: the decoded quaternions are not all finite unit quaternions "
+                         "(a bug: please report)")
     return vals

@@ -29,7 +29,7 @@ def segments_of(cuts, n_frames: int, rate_hz: float, ref=None) -> list[dict]:
     bounds = [0, *[int(c) for c in cuts], int(n_frames)]
     frame_labels = None if ref is None else np.asarray(ref.labels, dtype=object)[ref.frame_labels()]
     out = []
-    for a, b in zip(bounds[:-1], bounds[1:]):
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
         label = None
         if frame_labels is not None and b > a:
             label = str(Counter(frame_labels[a:b].tolist()).most_common(1)[0][0])
@@ -123,7 +123,7 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
 
     naming = name_segments(feats.limbs, cuts, rate_hz)
     rec["actions"] = None if naming is None else " ".join(naming.letters[0])
-    for seg_rec, letter in zip(rec["segments"], naming.letters[0] if naming is not None else []):
+    for seg_rec, letter in zip(rec["segments"], naming.letters[0] if naming is not None else [], strict=False):
         seg_rec["action"] = letter
     if ref is not None:
         from mocapkit.evaluation.segmentation import score

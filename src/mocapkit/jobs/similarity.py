@@ -67,7 +67,7 @@ def _motionless_warnings(still: list[list[bool]], names: list[str], paths: list[
         return [f"both takes are motionless ({', '.join(names)} do not change in {paths[0]} nor in {paths[1]}): "
                 "no correlation is defined (r is null)"]
     return [f"{p}: the take is motionless ({', '.join(names)} do not change): no correlation with it is defined "
-            "(r is null)" for p, st in zip(paths, still) if all(st)]
+            "(r is null)" for p, st in zip(paths, still, strict=True) if all(st)]
 
 
 def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: list[str] | None = None,
@@ -116,7 +116,7 @@ def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: 
     for k, nm in enumerate(names):
         r = float(ps.r[k])
         if not math.isfinite(r) and not (all(still[0]) or all(still[1])):
-            which = " and ".join(str(p) for p, st in zip((path, path_b), still) if st[k]) or "one take"
+            which = " and ".join(str(p) for p, st in zip((path, path_b), still, strict=True) if st[k]) or "one take"
             warnings.append(f"{nm}: the angle does not change in {which}; its correlation is undefined")
         rows.append({"limb": nm, "r": r if math.isfinite(r) else None,
                      "similarity_pct": 100.0 * r if math.isfinite(r) else None,

@@ -74,10 +74,12 @@ def _keyframes(path: Path, output: Path | None, o: SkeletonCompressOptions, prog
     motion = load_motion(path, asf=o.asf, rate=o.rate, strict=o.strict)
     ucm, assumed = find_unit(motion, o.unit_cm)
     bound = None if o.max_position_error is None else o.max_position_error / ucm
-    steps = None if o.threshold is not None else 41 if o.target_icr is not None else 15  # repair rounds: the ticks carry the total
+    # repair rounds: the ticks carry the total
+    steps = None if o.threshold is not None else 41 if o.target_icr is not None else 15
     stored = None
     with progress(f"compressing {path.name}", steps) as update, naming_target_icr(o.target_icr):
-        if gltf_out and output is not None and bound is not None:  # the bound is checked on the decoded file (written here)
+        # the bound is checked on the decoded file (written here)
+        if gltf_out and output is not None and bound is not None:
             comp, stored = compress_to_gltf(motion, bound, output, rotations=o.gltf_rotations, unit_m=ucm / 100.0,
                                             name=path.stem, method=o.method, max_segment_length=o.max_segment_length,
                                             progress=update, end_sites=end_sites)

@@ -36,7 +36,7 @@ def _push(enc: Encoder, t: list, x: list) -> Points:
     except InvalidSignalError:
         # a batch with a bad sample is refused whole: encode its good prefix one by one (the same
         # points a sample-by-sample stream would have sent), then fail on the bad sample
-        for ti, xi in zip(t, x):
+        for ti, xi in zip(t, x, strict=True):
             enc.push(ti, xi)
         raise
 

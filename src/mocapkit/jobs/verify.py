@@ -56,8 +56,8 @@ def verify_job(path: Path, output: Path | None = None, *, compressed: Path | Non
     :func:`mocapkit.jobs.batch_output` found under ``compressed_dir``) and return the record.
 
     ``max_angle`` (deg) bounds IMU data, ``max_position_error`` (cm) skeletons in ``error_metric`` ``"joint"``
-    (every joint), ``"joint+end"`` (every joint and End Site, the default: what ``compress`` bounds) or ``"shell"`` (ACL's: points ``shell_distance``
-    cm along each joint's axes).
+    (every joint), ``"joint+end"`` (every joint and End Site, the default: what ``compress`` bounds) or
+    ``"shell"`` (ACL's: points ``shell_distance`` cm along each joint's axes).
     ``unit_cm``, ``asf``, ``rate``, ``strict`` and the IMU column options are those of the original's reader.
     """
     from mocapkit.io.loaders import kind_of
@@ -73,7 +73,8 @@ def verify_job(path: Path, output: Path | None = None, *, compressed: Path | Non
     with progress(f"verifying {compressed.name}", None):
         if kind == "skeletal":
             if max_angle is not None and max_position_error is None:
-                raise InvalidParameterError("--max-angle is a bound for IMU data; skeletons take --max-position-error CM")
+                raise InvalidParameterError("--max-angle is a bound for IMU data; "
+                                            "skeletons take --max-position-error CM")
             return _skeletal(path, compressed, max_position_error, error_metric, shell_distance, unit_cm, asf, rate,
                              strict)
         if kind != "imu":
@@ -245,9 +246,11 @@ def _same_shape(a, b, path: Path, compressed: Path) -> None:
     """Refuse a decode of another skeleton or of another number of frames (or other frame times)."""
     sa, sb = a.skeleton, b.skeleton
     if list(sa.names) != list(sb.names):
-        k = next((i for i, (x, y) in enumerate(zip(sa.names, sb.names)) if x != y), min(sa.n_joints, sb.n_joints))
+        k = next((i for i, (x, y) in enumerate(zip(sa.names, sb.names, strict=False)) if x != y),
+                 min(sa.n_joints, sb.n_joints))
         what = (f"joint {k} is {sa.names[k]!r} in {path}, {sb.names[k]!r} in {compressed}"
-                if k < min(sa.n_joints, sb.n_joints) else f"{sa.n_joints} joints in {path}, {sb.n_joints} in {compressed}")
+                if k < min(sa.n_joints, sb.n_joints)
+                else f"{sa.n_joints} joints in {path}, {sb.n_joints} in {compressed}")
         raise InvalidParameterError(f"{compressed}: not a decode of {path}'s skeleton ({what})")
     if not np.array_equal(sa.parents, sb.parents):
         k = int(np.flatnonzero(sa.parents != sb.parents)[0])
@@ -331,9 +334,8 @@ def compressed_output(path: Path, options: dict, base: Path) -> Path:
     wanted = (f".{fmt}",) if fmt and kind_of(path) == "skeletal" else COMPRESSED_SUFFIXES.get(kind_of(path), ())
     found = [stem.with_name(stem.name + s) for s in wanted if stem.with_name(stem.name + s).exists()]
     if not found:
-        raise InvalidParameterError(f"{path}: no compressed output under {root} (looked for "
-                                    f"{', '.join(stem.name + s for s in wanted) or 'nothing: not IMU data or a skeleton'}"
-                                    f" in {stem.parent})")
+        looked = ", ".join(stem.name + s for s in wanted) or "nothing: not IMU data or a skeleton"
+        raise InvalidParameterError(f"{path}: no compressed output under {root} (looked for {looked} in {stem.parent})")
     if len(found) > 1:
         raise InvalidParameterError(f"{path}: both {' and '.join(f.name for f in found)} under {stem.parent}: give "
                                     "--skeletal-format glb|mkc")
