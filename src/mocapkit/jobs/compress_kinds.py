@@ -158,7 +158,7 @@ def _packets(output, given: dict) -> PacketCompressOptions:
 
 
 def _build(cls: type[T], given: dict) -> T:
-    return cls(**{f.name: given[f.name] for f in fields(cls) if f.name in given})  # type: ignore[arg-type]
+    return cls(**{f.name: given[f.name] for f in fields(cls) if f.name in given})
 
 
 @contextlib.contextmanager

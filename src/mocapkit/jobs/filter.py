@@ -104,7 +104,8 @@ def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto
     output = None if output is None else Path(output)
     check_outputs(path, (output, "--output"), (None if plot is None else Path(plot), "--plot"))
     suffix = None if output is None else output.suffix.lower()
-    if suffix == "" and is_device_or_pipe(output):  # /dev/null, /dev/stdout, a FIFO: written into, as CSV
+    # /dev/null, /dev/stdout, a FIFO: written into, as CSV
+    if output is not None and suffix == "" and is_device_or_pipe(output):
         suffix = ".csv"
     if suffix not in (None, ".csv", ".c3d", ".trc"):
         raise InvalidParameterError(f"{output}: filter writes .csv, or .c3d/.trc for a marker file")
@@ -142,6 +143,7 @@ def filter_job(path: Path, *, order: int = 2, penalty: float | None = None, auto
         from mocapkit.io.loaders import write_markers
         from mocapkit.markers import Markers
 
+        assert output is not None and suffix is not None  # a .c3d/.trc suffix is an output's
         mk = loaded
         pos = np.array(mk.positions)
         done = []

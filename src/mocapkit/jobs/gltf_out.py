@@ -29,10 +29,14 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mocapkit.errors import BoundViolationError, InvalidParameterError
+
+if TYPE_CHECKING:
+    from mocapkit.pla.skeletal import SkeletalCompressed
 
 #: part of the bound the storage error may take before SHORT rotations are given up for FLOAT
 SHORT_MAX_SHARE = 0.5
@@ -153,20 +157,20 @@ def compress_to_gltf(motion, bound: float, output: Path, *, rotations: str = "sh
     def attempt(e_c, fmt):
         comp = compress_motion(motion, method, max_position_error=e_c, max_segment_length=max_segment_length,
                                progress=progress, end_sites=end_sites)
-        data = encode(comp, fmt)
-        return comp, data, readback_error(motion, output, data, end_sites)
+        encoded = encode(comp, fmt)
+        return comp, encoded, readback_error(motion, output, encoded, end_sites)
 
-    full_short = None  # (comp, bytes, error) of SHORT with every frame a key, when within the bound
+    # [(comp, bytes, error)] of SHORT with every frame a key, when within the bound (set by plan)
+    full_short: list[tuple[SkeletalCompressed, bytes, float]] = []
 
     def plan(fmt):
-        nonlocal full_short
         Q = storage_error_bound(motion, fmt, bound, end_sites)
         full = every_frame(motion)
-        data = encode(full, fmt)
-        q0 = readback_error(motion, output, data, end_sites)
+        encoded = encode(full, fmt)
+        q0 = readback_error(motion, output, encoded, end_sites)
         if fmt == "short" and q0 <= bound:
             full.info = {"mode": "max_position_error", "bound": 0.0, "keys": "every frame"}
-            full_short = (full, data, q0)
+            full_short[:] = [(full, encoded, q0)]
         return Q, q0, bound - min(Q, MEASURED_MARGIN * q0)
 
     fmt = rotations
@@ -190,18 +194,18 @@ def compress_to_gltf(motion, bound: float, output: Path, *, rotations: str = "sh
         if sum(a["rotations"] == fmt for a in tried) < 2 and 0 < e2 < e1:
             e1 = e2
             continue
-        if fmt == "short":
-            warnings.append(f"SHORT rotations missed the bound on the decoded file ({err:.6g} > {bound:g}) "
-                            "after a tighter retry: compressed with FLOAT rotations")
-            fmt = "float"
-            Q, q0, e1 = plan(fmt)
-            continue
-        raise BoundViolationError(f"the decoded glTF is {err:.6g} from the input, above the bound {bound:g}, "
-                                  "after a tighter retry")
-    if full_short is not None and len(full_short[1]) < len(data):
-        warnings.append(f"every frame kept as a SHORT key ({len(full_short[1]):,} bytes, error {full_short[2]:.4g}) "
+        if fmt != "short":
+            raise BoundViolationError(f"the decoded glTF is {err:.6g} from the input, above the bound {bound:g}, "
+                                      "after a tighter retry")
+        warnings.append(f"SHORT rotations missed the bound on the decoded file ({err:.6g} > {bound:g}) "
+                        "after a tighter retry: compressed with FLOAT rotations")
+        fmt = "float"
+        Q, q0, e1 = plan(fmt)
+    if full_short and len(full_short[0][1]) < len(data):
+        warnings.append(f"every frame kept as a SHORT key ({len(full_short[0][1]):,} bytes, "
+                        f"error {full_short[0][2]:.4g}) "
                         f"is smaller than the keyframes ({len(data):,} bytes): written that way")
-        comp, data, err = full_short
+        comp, data, err = full_short[0]
         fmt, e1 = "short", 0.0
         tried.append({"rotations": fmt, "compress_bound": 0.0, "readback_error": err})
     write_gltf(output, comp, unit_m=unit_m, name=name, rotations=fmt, data=data)

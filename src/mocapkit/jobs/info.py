@@ -22,6 +22,7 @@ def info_job(path: Path, *, asf: Path | None = None, rate: float | None = None, 
     if path.suffix.lower() == ".mkp":
         return {"job": "info", **packet_fields(path), "recording": None, "outputs": []}
     kind = kind_of(path)
+    obj: object  # what the catalog describes: a Motion, Markers, a Signal or {name: Signal}
     with progress(f"reading {path.name}", None):
         if kind == "skeletal":
             m = load_motion(path, asf=asf, rate=rate, strict=strict)

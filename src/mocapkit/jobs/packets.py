@@ -120,14 +120,17 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
                                     "(one CSV per sensor), not a .csv file")
     if not folder and output.suffix.lower() != ".csv" and not is_device_or_pipe(output):
         raise InvalidParameterError(f"{output}: decoded points and samples are written as .csv")
-    dests, warnings = {name: output for name in names}, []
+    dests: dict[str, Path] = {name: output for name in names}
+    warnings: list[str] = []
     if folder:
         dests, warnings = sensor_outputs(output, names, path, inputs=[times_from])
     originals = None
     if times_from is not None:
         originals = _originals(times_from, names, rate, imu_columns(time_column, quaternion_columns, scalar_last,
                                                                     time_unit))
-    records, outputs, written = [], [], {}
+    records: list[dict] = []
+    outputs: list[dict] = []
+    written: dict[str, str | tuple[np.ndarray, np.ndarray]] = {}  # a points CSV's text, or (times, samples)
     for name, s in pf.streams.items():
         rec = {"name": name, "points": len(s.ticks), "packets": s.packets, "lost_sequence_numbers": s.lost,
                "ended": s.ended, "gaps": int(s.gap_before.sum()), "samples_left_out": 0}
@@ -139,7 +142,7 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
             rows = [format_row(t, v) + f",{int(k)},{int(g)}" for t, k, v, g in
                     zip(s.sensor.nominal_times(s.ticks).tolist(), s.ticks.tolist(), values.tolist(),
                         s.gap_before.tolist(), strict=True)]
-            written[name] = ("points", ",".join(POINT_COLUMNS) + "\n" + "".join(x + "\n" for x in rows))
+            written[name] = ",".join(POINT_COLUMNS) + "\n" + "".join(x + "\n" for x in rows)
             records.append(rec)
             continue
         if originals is not None:
@@ -153,6 +156,7 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
             u = np.arange(n, dtype=np.float64)
             times = orig.times
         else:  # a grid on the stream's nominal clock, made in ticks: at --rate = the stream's rate, on every tick
+            assert rate is not None  # no ORIGINAL and no --rate left on the tick clock above
             step = r / rate
             m = math.floor((float(s.ticks[-1]) - float(s.ticks[0])) / step + 1e-9) + 1
             if m > 50_000_000:
@@ -164,20 +168,20 @@ def decompress_packets_job(path: Path, output: Path, *, times_from: Path | None 
                 raise InvalidParameterError(f"--rate {rate:g}: the grid's steps vanish in the rounding of times near "
                                             f"{float(times[0]):g} s; give a lower rate")
         keep, vals = decode_at(s.ticks, values, s.gap_before, u)
-        if originals is not None:
+        if originals is not None and times_from is not None:
             _check_against_original(vals, originals[name].values[keep], pf.header.max_angle_deg, times_from, name)
         rec["samples"] = int(keep.sum())
         rec["samples_left_out"] = int((~keep).sum())
-        written[name] = ("samples", times[keep], vals)
+        written[name] = (times[keep], vals)
         records.append(rec)
     if folder:
         output.mkdir(exist_ok=True)
     for name, what in written.items():
         dest = dests[name]
-        if what[0] == "points":
-            atomic_write_text(dest, what[1])
+        if isinstance(what, str):
+            atomic_write_text(dest, what)
         else:
-            write_signal_csv(dest, what[1], what[2])
+            write_signal_csv(dest, *what)
         outputs.append(output_entry(dest, "csv"))
     return {"job": "decompress", "file": str(path), "kind": "imu",
             "mode": "points" if originals is None and rate is None else "samples",

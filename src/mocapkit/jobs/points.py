@@ -48,9 +48,10 @@ def decompress_points_job(points: Path, output: Path, *, times_from: Path | None
         if ticks is not None:
             _check_same_samples(points, ticks, times_from, len(orig))
     else:
+        assert rate is not None  # checked above: --times-from or --rate
         t = _grid(pts.times, rate)
     on_ticks = ticks is not None and times_from is not None
-    vals = _decode(points, pts, (ticks, np.arange(len(t))) if on_ticks else (pts.times, t))
+    vals = _decode(points, pts, (ticks, np.arange(len(t))) if on_ticks and ticks is not None else (pts.times, t))
     write_signal_csv(output, t, vals)
     return {"job": "decompress", "file": str(points), "kind": "imu", "mode": "samples",
             "clock": "ticks" if on_ticks else "time",

@@ -71,7 +71,8 @@ def _skeletal(m) -> tuple[list[dict], str | None, str | None]:
     asf = sk.meta.get("asf")
     if isinstance(asf, dict) and asf.get("bones") is not None:  # ASF/AMC: the file's channels are the dofs
         dofs = [("root", tuple(asf.get("root", {}).get("order", ())))]
-        dofs += [(b, tuple(asf["bones"][b].get("dofs", ()))) for b in asf.get("bone_order", asf["bones"])]
+        bone_order = asf["bone_order"] if "bone_order" in asf else asf["bones"]
+        dofs += [(b, tuple(asf["bones"][b].get("dofs", ()))) for b in bone_order]
         for bone, names in dofs:
             for d in names:
                 d = d.lower()
@@ -168,6 +169,7 @@ def describe(obj, path, fmt: str | None = None) -> dict:
 
     p = Path(path)
     subject = take = None
+    rate: float | None
     if isinstance(obj, Motion):
         kind, meta = "skeletal", {**obj.skeleton.meta, **obj.meta}
         frames, rate = obj.n_frames, obj.rate

@@ -5,11 +5,16 @@ from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from mocapkit.errors import InvalidParameterError
 from mocapkit.jobs.common import Progress, check_outputs, no_progress, output_entry, recording
+
+if TYPE_CHECKING:
+    from mocapkit.segment.arma import ARMASegmenter
+    from mocapkit.segment.base import Segmenter
 
 
 def pairs(items, what: str) -> list[tuple[str, str]]:
@@ -86,11 +91,13 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
         warnings += list(ref.warnings)
     jmap = dict(pairs(joint, "--joint"))
     feats = motion_features(motion, jmap)
+    seg: Segmenter
+    arma: ARMASegmenter | None = None
     if method == "arma":
         from mocapkit.segment.arma import ARMASegmenter
 
         ds = downsample if downsample is not None else max(1, int(round(rate_hz / 30.0)))
-        seg = ARMASegmenter(downsample=ds)
+        seg = arma = ARMASegmenter(downsample=ds)
     elif method == "auto":
         from mocapkit.evaluation.segmentation import auto_settings
         from mocapkit.segment.autok import AutoSegmenter
@@ -116,9 +123,10 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
     X = pose_features(motion) if method == "pca" else feats.partition if method == "auto" else feats.limbs
     with progress(f"segmenting {path.name} ({method})", None):
         cuts = seg.fit_predict(X)
-    rec = {"job": "segment", "file": str(path), "kind": "skeletal", "method": method, "n_frames": motion.n_frames,
-           "rate_hz": rate_hz, "cuts": [{"frame": int(c), "time_s": float(c) / rate_hz} for c in cuts],
-           "segments": segments_of(cuts, motion.n_frames, rate_hz, ref), "warnings": warnings, "outputs": []}
+    rec: dict[str, Any] = {
+        "job": "segment", "file": str(path), "kind": "skeletal", "method": method, "n_frames": motion.n_frames,
+        "rate_hz": rate_hz, "cuts": [{"frame": int(c), "time_s": float(c) / rate_hz} for c in cuts],
+        "segments": segments_of(cuts, motion.n_frames, rate_hz, ref), "warnings": warnings, "outputs": []}
     from mocapkit.segment.naming import name_segments
 
     naming = name_segments(feats.limbs, cuts, rate_hz)
@@ -136,10 +144,11 @@ def segment_job(path: Path, *, asf: Path | None = None, method: str = "arma", la
         plot_segmentation(feats.limbs, rate_hz, cuts, plot, ref_cuts=None if ref is None else ref.cuts,
                           names=list(LIMB_NAMES), title=f"{path.name}: {method}")
         rec["outputs"].append(output_entry(plot, "png"))
-    if arma_plot is not None:  # per limb: ACF, PACF and Ljung-Box of the windows' residuals (Sec. 4.3, 4.5)
+    if arma_plot is not None and arma is not None:  # arma_plot is set for --method arma only
+        # per limb: ACF, PACF and Ljung-Box of the windows' residuals (Sec. 4.3, 4.5)
         from mocapkit.plot import plot_arma_diagnostics
 
-        plot_arma_diagnostics([ch["windows"] for ch in seg.channels_], list(LIMB_NAMES), arma_plot,
+        plot_arma_diagnostics([ch["windows"] for ch in arma.channels_], list(LIMB_NAMES), arma_plot,
                               title=f"{path.name}: ARMA windows")
         rec["outputs"].append(output_entry(arma_plot, "png"))
     rec["recording"] = recording(motion, path)

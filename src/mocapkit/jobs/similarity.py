@@ -8,9 +8,13 @@ from __future__ import annotations
 import math
 import re
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from mocapkit.errors import InvalidParameterError
 from mocapkit.jobs.common import Progress, no_progress, recording
+
+if TYPE_CHECKING:
+    import numpy as np
 
 _RANGE_RE = re.compile(r"\s*([0-9]*)\s*:\s*([0-9]*)\s*")
 
@@ -89,7 +93,9 @@ def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: 
     names = list(limbs) if limbs else list(LIMB_NAMES)
     cols = [LIMB_NAMES.index(x) for x in names]
     jmap = dict(pairs(joint, "--joint"))
-    sides, warnings, motions, loaded = [], [], [], {}
+    sides: list[tuple[np.ndarray, dict[str, Any]]] = []
+    warnings: list[str] = []
+    motions, loaded = [], {}
     for p, rng, option in ((path, frames, "--frames"), (path_b, frames_b, "--frames-b")):
         if p.resolve() not in loaded:  # the same take twice (two ranges of it) is read once
             motion = load_motion(p, asf=asf, rate=rate, strict=strict)
@@ -112,7 +118,7 @@ def similarity_job(path: Path, path_b: Path, *, asf: Path | None = None, limbs: 
         ps = sequence_similarity(A, B, align=align, band=band, resample=resample)
     still = [[is_constant(X[:, k]) for k in range(len(names))] for X in (A, B)]
     warnings += _motionless_warnings(still, names, [path, path_b])
-    rows = []
+    rows: list[dict[str, Any]] = []
     for k, nm in enumerate(names):
         r = float(ps.r[k])
         if not math.isfinite(r) and not (all(still[0]) or all(still[1])):

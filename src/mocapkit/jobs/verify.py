@@ -64,7 +64,8 @@ def verify_job(path: Path, output: Path | None = None, *, compressed: Path | Non
 
     check_options(max_angle, max_position_error, error_metric, shell_distance, skeletal_format)
     path = Path(path)
-    compressed = Path(compressed if compressed is not None else output) if (compressed or output) else None
+    given = compressed if compressed is not None else output
+    compressed = Path(given) if given is not None and (compressed or output) else None
     if compressed is None:
         raise InvalidParameterError(f"{path}: give the compressed file to verify")
     if not compressed.exists():
