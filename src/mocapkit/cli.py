@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.table import Table
@@ -62,6 +62,9 @@ from mocapkit.cli_options import (  # noqa: F401 - _console, _json and the limit
 )
 from mocapkit.errors import InvalidParameterError, InvalidSignalError, MocapError
 from mocapkit.jobs.common import imu_columns as _columns
+
+if TYPE_CHECKING:
+    from mocapkit.evaluation.segmentation import Take
 
 app = typer.Typer(
     add_completion=False,
@@ -443,7 +446,8 @@ def filter_eval(
     from mocapkit.io.atomic import atomic_write_text
 
     _check_output(out, folder=True, inputs=(juggling,), option="--out")
-    mk = ball_list = None
+    mk = None
+    ball_list: list[str] = []
     ctrl: list[str] = []
     if juggling is not None:  # read and check everything before any long computation
         from mocapkit.io.loaders import load_markers
@@ -598,6 +602,7 @@ def stream(
         if m != "anglesw":
             raise InvalidParameterError("--max-angle in a stream needs --method anglesw (online, guaranteed)")
         threshold = max_angle
+    assert threshold is not None  # exactly one of --threshold and --max-angle, checked above
     enc = Encoder(m, threshold, max_segment_length=max_segment_length)
     out = sys.stdout
 
@@ -774,6 +779,7 @@ def segment(
         if rec.get("actions"):
             console.print(f"actions: {rec['actions']}")
         if "scores" in rec:
+            assert labels is not None  # scores come with --labels only
             sc = rec["scores"]
             ri = "–" if sc["ri_paper"] is None else f"{sc['ri_paper']:.3f}"
             console.print(f"against {labels.name}: F1 {sc['f1']:.3f} (P {sc['precision']:.3f}, R {sc['recall']:.3f}), "
@@ -834,6 +840,7 @@ def segment_bench(
                   inputs=(data, asf, *[Path(x.strip()) for it in takes or [] for x in str(it).split("=", 1)]))
     cmu_dir, tssb_dir = data / "cmu", data / "tssb"
     log = (lambda s: err.print(s)) if not as_json else None
+    source: list[Take] | Path
     if takes:
         source = load_user_takes(find_pairs(takes), asf=asf, rate=rate, log=lambda s: err.print(s))
         tssb = bool(tssb)
@@ -884,9 +891,10 @@ app.add_typer(catalog_app, name="catalog")
 
 
 #: typer's click exceptions (usage errors: missing argument, unknown option, a value that is not a
-#: number...), reached through the public ``typer.BadParameter`` whether typer vendors click or not
-_ClickException = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
-_UsageError = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
+#: number...), reached through the public ``typer.BadParameter`` whether typer vendors click or not (so typed
+#: as any class: their ``show``/``format_message`` are click's)
+_ClickException: type[Any] = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "ClickException")
+_UsageError: type[Any] = next(c for c in typer.BadParameter.__mro__ if c.__name__ == "UsageError")
 EXIT_INPUT, EXIT_INTERNAL, EXIT_INTERRUPTED = 2, 3, 130
 
 
@@ -923,8 +931,11 @@ def _empty_positional(args: list[str]) -> list[str] | None:
     if "" not in args:
         return None
     cmd, words, i = typer.main.get_command(app), [], 0
-    while i < len(args) and args[i] in getattr(cmd, "commands", {}):
-        cmd = cmd.commands[args[i]]
+    while i < len(args):
+        commands = getattr(cmd, "commands", {})  # a group's sub-commands by name
+        if args[i] not in commands:
+            break
+        cmd = commands[args[i]]
         words.append(args[i])
         i += 1
     takes_value = {o for p in cmd.params if getattr(p, "opts", None) and not getattr(p, "is_flag", False)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, overload
 
 import typer
 
@@ -83,6 +83,12 @@ ManifestOpt = Annotated[Path | None, typer.Option(
                        "options only fill in what a file lacks (a file's own clock or skeleton always wins).")]
 
 
+@overload
+def _abs(p: Path | str) -> str: ...
+@overload
+def _abs(p: None) -> None: ...
+@overload
+def _abs(p: Path | str | None) -> str | None: ...
 def _abs(p: Path | str | None) -> str | None:
     """A path option as an absolute string: the options are JSON (hashed, stored) and workers on a
     cluster do not share the command's working folder."""

@@ -25,7 +25,7 @@ import itertools
 import os
 import time
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -139,7 +139,7 @@ def previous_rows(out: Path) -> list[dict]:
     return [*read_results(out / RESULTS_NAME), *read_journal(out / JOURNAL_NAME)]
 
 
-def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out: str | os.PathLike[str], *,
+def run_batch(job: str, inputs: Sequence[str | os.PathLike[str]], options: dict, out: str | os.PathLike[str], *,
               jobs: int = 1, engine: str = "local", scheduler: str | None = None, resume: bool = False,
               db: str | None = None, report: Report | None = None,
               manifest: str | os.PathLike[str] | None = None) -> BatchResult:
@@ -177,14 +177,14 @@ def run_batch(job: str, inputs: list[str | os.PathLike[str]], options: dict, out
     out = _prepare_out(out)
     kept: dict[Path, dict] = {}
     if resume:
-        done = {}
+        done: dict[tuple[str, str | None], dict | None] = {}
         for r in previous:
             if r.get("job") == job:
                 done[(r["input"], r.get("options_hash"))] = r if r.get("status") == "ok" else None
         for f in found.files:
-            r = done.get((str(f), options_hash(per_file[f].options)))
-            if r is not None and r.get("content_hash") and _hash_or_none(f) == r["content_hash"]:
-                kept[f] = r
+            ok = done.get((str(f), options_hash(per_file[f].options)))
+            if ok is not None and ok.get("content_hash") and _hash_or_none(f) == ok["content_hash"]:
+                kept[f] = ok
     bases = output_bases(found.files, out)
     guard = OutputGuard([*found.files, *(p for p, _ in found.skipped), *([] if man is None else [man.path]),
                          *(x for fo in per_file.values() for x in fo.files)])
@@ -276,7 +276,8 @@ class _CatalogFeed:
     CHUNK, EVERY_S = 200, 30.0
 
     def __init__(self, catalog, first: list[dict]):
-        self.catalog, self.pending, self.added = catalog, list(first), {}
+        self.catalog, self.pending = catalog, list(first)
+        self.added: dict[str, int] = {}
         self.last = time.monotonic()
 
     def add(self, row: dict) -> None:
@@ -361,7 +362,7 @@ def _submit(pool, job: str, t: Task, **kw):
     return pool.submit(run_one, job, str(t.path), t.options, str(t.base), t.notes, **kw)
 
 
-def _local(job: str, tasks: list[Task], n: int) -> Iterator[dict]:
+def _local(job: str, tasks: list[Task], n: int) -> Generator[dict, None, None]:
     """The local engine: a process pool of ``n`` workers (see the module docstring)."""
     from concurrent.futures import FIRST_COMPLETED, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -461,7 +462,7 @@ def _isolated(job: str, tasks: list[Task], n: int, ctx) -> Iterator[dict]:
             _stop(pool)
 
 
-def _dask(job: str, tasks: list[Task], n: int, scheduler: str | None) -> Iterator[dict]:
+def _dask(job: str, tasks: list[Task], n: int, scheduler: str | None) -> Generator[dict, None, None]:
     """The Dask engine: the same :func:`run_one` on a cluster (see the module docstring)."""
     import logging
 

@@ -8,7 +8,7 @@ written. A file that cannot be read is reported with its one-line error and the 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -47,7 +47,7 @@ def describe_input(path: str | os.PathLike, asf: Path | None = None,
     return {**record["recording"], "path": os.fspath(path)}, h, input_bytes(os.fspath(path)), reading_key(options)
 
 
-def import_folder(catalog: Catalog, inputs: list[str | os.PathLike], asf: Path | None = None,
+def import_folder(catalog: Catalog, inputs: Sequence[str | os.PathLike[str]], asf: Path | None = None,
                   on_file: Callable[[str, str | None], None] | None = None) -> ImportResult:
     """Register every recording found in ``inputs`` (files, folders walked recursively, globs: the rules of
     :func:`mocapkit.jobs.inputs.expand_inputs`). ``on_file(path, error_or_None)`` is called after each

@@ -8,7 +8,7 @@ import contextlib
 import math
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, Literal, TypeVar, overload
 
 from mocapkit.errors import InvalidParameterError
 
@@ -109,7 +109,16 @@ def check_options(method: str = "fastsw", threshold=None, target_icr=None, max_a
                                        "kind of input)" if per_file else ""))
 
 
-def compress_options(kind: str, output: Path | None = None, **given) -> CompressOptions:
+@overload
+def compress_options(kind: Literal["imu"], output: Path | None = None, **given: Any) -> ImuCompressOptions: ...
+@overload
+def compress_options(kind: Literal["skeletal"], output: Path | None = None,
+                     **given: Any) -> SkeletonCompressOptions: ...
+@overload
+def compress_options(kind: Literal["packets"], output: Path | None = None, **given: Any) -> PacketCompressOptions: ...
+@overload
+def compress_options(kind: str, output: Path | None = None, **given: Any) -> CompressOptions: ...
+def compress_options(kind: str, output: Path | None = None, **given: Any) -> CompressOptions:
     """The options of compress work ``kind`` (:data:`KINDS`) from the ``given`` values (the command's
     options in snake case; None: not given), checked as the command checks them, the bad option named.
     ``output`` only words the messages (a ``.mkc`` or ``.mkp`` output takes fewer controls). Options of

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import glob
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -80,7 +81,7 @@ def is_sensor_folder(folder: str | os.PathLike[str]) -> bool:
     return True
 
 
-def expand_inputs(args: list[str | os.PathLike[str]], out: str | os.PathLike[str] | None = None) -> Inputs:
+def expand_inputs(args: Sequence[str | os.PathLike[str]], out: str | os.PathLike[str] | None = None) -> Inputs:
     """Expand the command line's INPUT arguments.
 
     A file is taken as given (a recording, or skipped with its reason), a sensor folder

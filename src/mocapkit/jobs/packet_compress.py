@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import cast
 
 import numpy as np
 
@@ -30,7 +29,7 @@ from mocapkit.jobs.packets import (
 def compress_packets_job(path: Path, output: Path, *, progress: Progress = no_progress, **given) -> dict:
     """:func:`compress_packets` with the options given by name (``max_angle``, ``packet_bits``...), built by
     :func:`mocapkit.jobs.compress_kinds.compress_options`."""
-    options = cast(PacketCompressOptions, compress_options("packets", output, **given))
+    options = compress_options("packets", output, **given)
     return compress_packets(path, options, output=output, progress=progress)
 
 
