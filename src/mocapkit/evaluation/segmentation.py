@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mocapkit.errors import MocapFormatError
+from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io.skeletal.labels import Reference, read_frame_labels, read_haca_labels
 from mocapkit.segment.metrics import covering, f1_margin, frame_agreement, ri_paper
 
@@ -70,8 +70,6 @@ def load_take(cmu_dir: Path, name: str) -> Take:
 def find_pairs(items, label_suffix: str = ".labels.txt") -> list[tuple[Path, Path]]:
     """``(motion, labels)`` pairs from ``TAKE=LABELS`` strings and folders (every motion file
     ``X.<ext>`` of a folder with a ``X.labels.txt`` beside it; ASF files are skeletons, not takes)."""
-    from mocapkit.errors import InvalidParameterError
-
     out = []
     for it in items:
         it = str(it)
@@ -171,6 +169,9 @@ def features_for(method: str, take: Take) -> np.ndarray:
     if method == "pca":
         return take.pose
     if method == "auto":
+        if take.partition is None:
+            raise InvalidParameterError(f"{take.name}: method 'auto' needs the take's 8 partition angles "
+                                        "(Take.partition)")
         return take.partition
     return take.limbs
 
@@ -231,7 +232,7 @@ def run_mocap(cmu_dir, methods=MOCAP_METHODS, known_k: bool = False, log=None) -
     """Every method on every labelled take: one row per (take, method). ``cmu_dir``: the shared CMU
     folder (its 4 takes), or a list of :class:`Take` (:func:`load_user_takes`). The MLP is trained
     on the other takes, so it needs at least two (skipped otherwise, with a message)."""
-    takes = [load_take(cmu_dir, t) for t in MOCAP_TAKES] if isinstance(cmu_dir, (str, Path)) else list(cmu_dir)
+    takes = [load_take(Path(cmu_dir), t) for t in MOCAP_TAKES] if isinstance(cmu_dir, (str, Path)) else list(cmu_dir)
     if "mlp" in methods and len(takes) < 2:
         methods = [m for m in methods if m != "mlp"]
         if log:

@@ -90,7 +90,12 @@ class ClaSPSegmenter(Segmenter):
         n_jobs: int = -1,
         random_state: int = 2357,
     ) -> None:
-        self.n_cuts = optional_n_cuts(n_cuts)
+        known = optional_n_cuts(n_cuts)
+        if isinstance(known, str):  # "auto": a penalty read off a cost curve, which ClaSP has not
+            raise InvalidParameterError(
+                f"n_cuts={known!r} is not a ClaSP mode: None (claspy learns the number of cuts) or an integer"
+            )
+        self.n_cuts = known
         if isinstance(window_size, str):
             if window_size not in ("suss", "fft", "acf"):
                 raise InvalidParameterError(
@@ -161,7 +166,7 @@ class ClaSPSegmenter(Segmenter):
         if z.shape[1] > 0 and m >= 6 * self.excl_radius and self.n_cuts != 0:
             known = self.n_cuts is not None
             clasp = seg_module.BinaryClaSPSegmentation(
-                n_segments=self.n_cuts + 1 if known else "learn",
+                n_segments=self.n_cuts + 1 if self.n_cuts is not None else "learn",
                 n_estimators=self.n_estimators,
                 window_size=self.window_size,
                 k_neighbours=self.k_neighbours,
