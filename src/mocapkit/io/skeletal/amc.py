@@ -98,6 +98,7 @@ import math
 import re
 import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -220,7 +221,7 @@ class _Bone:
         self.line = line
         self.fields: dict[str, int] = {}
         self.id: int | None = None
-        self.name: str | None = None
+        self.name = ""  # until its 'name' line (then in fields)
         self.direction: tuple[float, float, float] | None = None
         self.length: float | None = None
         self.axis: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -280,7 +281,7 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
     lines = _lines(text)
     seen: dict[str, int] = {}
     section: str | None = None
-    units = {"mass": 1.0, "length": 1.0, "angle": "deg"}
+    units: dict[str, Any] = {"mass": 1.0, "length": 1.0, "angle": "deg"}  # angle: "deg" or "rad"
     unit_lines: dict[str, int] = {}
     root: dict = {}
     root_lines: dict[str, int] = {}
@@ -353,17 +354,17 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
             if key in root_lines:
                 raise MocapFormatError(src, ln, f":root {key} given twice (first on line {root_lines[key]})")
             if key == "order":
-                order = tuple(a.upper() for a in args)
-                if not order:
+                root_order = tuple(a.upper() for a in args)
+                if not root_order:
                     raise MocapFormatError(src, ln, ":root order is empty")
-                bad = [a for a in order if a not in _ROOT_TOKENS]
+                bad = [a for a in root_order if a not in _ROOT_TOKENS]
                 if bad:
                     raise MocapFormatError(
                         src, ln, f":root order: unknown token {_short(bad[0])} (expected TX TY TZ RX RY RZ)"
                     )
-                if len(set(order)) != len(order):
+                if len(set(root_order)) != len(root_order):
                     raise MocapFormatError(src, ln, ":root order names a channel twice")
-                root["order"] = order
+                root["order"] = root_order
             elif key == "axis":
                 if len(args) != 1 or not _AXIS_ORDER_RE.match(args[0].upper()) or len(set(args[0].upper())) != 3:
                     raise MocapFormatError(
@@ -480,18 +481,18 @@ def _parse_asf(text: str, src: str, length_unit_cm: float | None, state: dict) -
         if par != _ROOT_NAME:
             pb = by_name[par]
             offsets[index[n]] = np.asarray(pb.direction) * pb.length
-    end_sites = []
+    end_sites: list[tuple[int, tuple[float, float, float]]] = []
     for n in order[1:]:
         if not children[n]:
             b = by_name[n]
-            off = tuple(float(v) for v in np.asarray(b.direction) * b.length)
-            end_sites.append((index[n], off))
+            x, y, z = (float(v) for v in np.asarray(b.direction) * b.length)
+            end_sites.append((index[n], (x, y, z)))
     if not np.all(np.isfinite(offsets)) or not all(math.isfinite(v) for _, o in end_sites for v in o):
         raise MocapFormatError(src, None, "a bone's direction × length overflows")
     channels = tuple(ROOT_CHANNELS if j == 0 else JOINT_CHANNELS for j in range(J))
 
     deg = units["angle"] == "deg"
-    asf_info = {
+    asf_info: dict[str, Any] = {
         "version": version,
         "name": name,
         "units": dict(units),
@@ -538,7 +539,7 @@ def _bone_line(src: str, ln: int, key: str, t0: str, args: list[str], toks: list
             src, ln, f"{_short(' '.join(toks))} outside a bone block ('begin' … 'end') in :bonedata"
         )
     if key == "end" and not args:
-        if cur.name is None:
+        if "name" not in cur.fields:
             raise MocapFormatError(src, ln, f"bone block (line {cur.line}) has no 'name'")
         for field in ("direction", "length"):
             if getattr(cur, field) is None:
@@ -572,7 +573,8 @@ def _bone_line(src: str, ln: int, key: str, t0: str, args: list[str], toks: list
             raise MocapFormatError(src, ln, "a bone cannot be named 'root' (the name of the :root)")
         cur.name = args[0]
     elif key == "direction":
-        cur.direction = _numbers(src, ln, args, 3, "direction")
+        x, y, z = _numbers(src, ln, args, 3, "direction")
+        cur.direction = (x, y, z)
     elif key == "length":
         (v,) = _numbers(src, ln, args, 1, "length")
         if v < 0:
@@ -583,11 +585,11 @@ def _bone_line(src: str, ln: int, key: str, t0: str, args: list[str], toks: list
             raise MocapFormatError(
                 src, ln, f"axis: expected three angles and an order such as XYZ, got {_short(' '.join(args))}"
             )
-        ax = _numbers(src, ln, args[:3], 3, "axis")
+        x, y, z = _numbers(src, ln, args[:3], 3, "axis")
         o = args[3].upper()
         if not _AXIS_ORDER_RE.match(o) or len(set(o)) != 3:
             raise MocapFormatError(src, ln, f"axis order must be a permutation of XYZ, got {_short(args[3])}")
-        cur.axis, cur.axis_order = ax, o
+        cur.axis, cur.axis_order = (x, y, z), o
     elif key == "dof":
         dofs = tuple(a.lower() for a in args)
         if not dofs:
@@ -1143,7 +1145,7 @@ def write_amc(path: str | Path, motion: Motion, asf_skeleton: Skeleton,
         if b["dofs"]:
             cols[n] = ang
     per_joint = {n: float(r.max()) if r.size else 0.0 for n, r in residuals.items()}
-    worst = max(per_joint, key=per_joint.get)
+    worst = max(per_joint, key=per_joint.__getitem__)
     frame = int(np.argmax(residuals[worst])) if N else 0
     report = {"max_residual_deg": per_joint[worst], "joint": worst, "frame": frame + 1, "per_joint": per_joint,
               "limit_deg": limit}
