@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import NoReturn
 from xml.parsers import expat
 
 import numpy as np
@@ -157,7 +158,7 @@ class _Reader:
         self.frame_lines: list[int] = []
 
     # -- helpers -----------------------------------------------------------------------------------
-    def fail(self, problem: str, line: int | None = None):
+    def fail(self, problem: str, line: int | None = None) -> NoReturn:
         raise MocapFormatError(self.src, self.p.CurrentLineNumber if line is None else line, problem)
 
     def numbers(self, text: str, what: str, line: int, per: int = 0) -> np.ndarray:
@@ -176,6 +177,8 @@ class _Reader:
                     self.fail(f"{self._component(what, i, per)}: {t!r} is NaN or infinite (MVNX has no "
                               "missing-value convention)", line)
                 parse_number(t, self.src, line, self._component(what, i, per))
+            # the strict grammar refuses whatever the bulk parse or the range check did
+            assert v is not None
         return v
 
     def _component(self, what: str, i: int, per: int) -> str:
@@ -424,7 +427,7 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
         raise MocapFormatError(src, r.frame_lines[n], f"segment {labels[s]!r}: zero orientation quaternion")
     G = G / norm[..., None]
 
-    times, rate, times_from = _times(r, src, warnings)
+    times, rate, times_from = _times(r, r.subject.get("_rate"), src, warnings)
 
     new_index = {s: k for k, s in enumerate(order)}
     rot = np.empty((N, S, 4))
@@ -473,7 +476,8 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
         if pts:
             d, _, v = max(pts, key=lambda x: x[0])
             if d > 0:
-                end_sites.append((k, tuple(float(x) for x in v)))
+                x, y, z = (float(c) for c in v)
+                end_sites.append((k, (x, y, z)))
 
     sk = Skeleton(
         names=tuple(labels[s] for s in order),
@@ -508,10 +512,9 @@ def _build(r: _Reader, src: str, tol: float) -> Motion:
         raise MocapFormatError(src, None, str(exc)) from None
 
 
-def _times(r: _Reader, src: str, warnings: list[str]) -> tuple[np.ndarray, float, str]:
-    """Frame times (s), the rate and where they came from."""
+def _times(r: _Reader, rate: float | None, src: str, warnings: list[str]) -> tuple[np.ndarray, float, str]:
+    """Frame times (s), the rate and where they came from (``rate``: the subject's frameRate, if any)."""
     N = len(r.orient)
-    rate = r.subject.get("_rate")
     has_t = all(t is not None for t in r.times_ms)
     t_file = np.array(r.times_ms, dtype=np.float64) / 1000.0 if has_t else None
     if t_file is not None and N > 1:
