@@ -158,7 +158,7 @@ def _gif_writer(fps: float, palette: GifPalette):
             self._frames[0].save(self.outfile, save_all=True, append_images=self._frames[1:],
                                  duration=delay_ms, loop=0)
 
-    return GifWriter(fps=fps)
+    return GifWriter(fps=fps)  # type: ignore[arg-type]  # matplotlib's stubs say int; a GIF's rate is 100/k
 
 
 def gif_fps(fps: float) -> float:
@@ -173,7 +173,7 @@ def gif_fps(fps: float) -> float:
 def _mp4_writer(fps: float):
     from matplotlib.animation import FFMpegWriter
 
-    return FFMpegWriter(fps=fps, codec="h264", bitrate=-1,
+    return FFMpegWriter(fps=fps, codec="h264", bitrate=-1,  # type: ignore[arg-type]  # stubs: int; ffmpeg takes any
                         extra_args=["-pix_fmt", "yuv420p", "-crf", "20", "-preset", "medium"])
 
 

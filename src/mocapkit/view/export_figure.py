@@ -271,12 +271,13 @@ class GifPalette:
         px = np.concatenate(rows)
         colours, inverse, counts = np.unique(_codes(px), return_inverse=True, return_counts=True)
         top = np.argsort(-counts, kind="stable")[:exact]
-        palette = [((c >> 16) & 255, (c >> 8) & 255, c & 255) for c in colours[top].tolist()]
+        palette: list[tuple[int, ...]] = [((c >> 16) & 255, (c >> 8) & 255, c & 255) for c in colours[top].tolist()]
         rest = px[~np.isin(inverse, top)]
         if len(rest):
             cut = Image.fromarray(rest[None, :, :].copy()).convert("P", palette=Image.Palette.ADAPTIVE,
                                                                    colors=256 - len(palette))
             values = cut.getpalette()
+            assert values is not None  # a "P" image made with an adaptive palette has one
             palette += [tuple(values[3 * i:3 * i + 3]) for i in np.unique(np.asarray(cut)).tolist()]
         flat = [v for c in palette[:256] for v in c]
         self.image = Image.new("P", (1, 1))

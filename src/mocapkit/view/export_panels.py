@@ -451,7 +451,7 @@ class MarkerView:
             for m in range(M):
                 tr = self.pos[::step, m]
                 ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], **trace)
-                if fit_marker[m]:
+                if fitted is not None and fit_marker[m]:
                     fc = fitted[::step, m]
                     ax.plot(fc[:, 0], fc[:, 1], fc[:, 2], **curve)
             if len(knots):
@@ -493,8 +493,9 @@ class MarkerView:
             idx = np.unique(np.concatenate([[a], idx, [b - 1]]))
         for m, line in enumerate(self.traces):
             _set_polyline(line, self.pos[idx, m])
-        for m, line in self.curves:
-            _set_polyline(line, self.fitted[idx, m])
+        if self.fitted is not None:  # the curves of the fitted markers
+            for m, line in self.curves:
+                _set_polyline(line, self.fitted[idx, m])
         if self.knots is not None:
             k0 = int(np.searchsorted(self.knot_times, t - self.trail_s, side="left"))
             k1 = int(np.searchsorted(self.knot_times, t + self.trail_s, side="right"))

@@ -69,7 +69,9 @@ class Points:
         if self.times is not None and len(self.ticks) > 1 and np.array_equal(ticks, self.ticks):
             return self.times
         if self.rate is None:  # a points CSV: times of the points, linear between them
+            assert self.times is not None  # points without a rate are built with their times
             return np.interp(ticks, self.ticks, self.times)
+        assert self.t0 is not None  # a packet stream's points have its rate and start time
         return self.t0 + ticks / self.rate
 
 
@@ -125,6 +127,7 @@ def decode(points: Points, n: int | None, at_times: np.ndarray | None = None
     u = (np.arange(n, dtype=np.float64) if n is not None
          else np.arange(points.ticks[0], points.ticks[-1] + 1, dtype=np.float64))
     if at_times is not None and points.in_time:
+        assert points.times is not None  # points read in time are built with their times
         keep, vals = decode_at(points.times, points.values, points.gap_before, np.asarray(at_times, np.float64))
     else:
         keep, vals = decode_at(points.ticks, points.values, points.gap_before, u)

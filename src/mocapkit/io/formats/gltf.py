@@ -754,7 +754,7 @@ def _decode(doc: dict, blob: bytes | bytearray, src: str, rate: float | None) ->
         n = _int(extras["n_frames"], "extras n_frames", 1)
         _check_size(n, n_nodes)
         t0 = _num(extras.get("t0", 0.0), "extras t0")
-        times = t0 + ft * np.arange(n)
+        times = t0 + ft * np.arange(n, dtype=np.float64)
     else:
         if rate is None:
             raise InvalidParameterError(f"{src} has no mocapkit frame times: give the frame rate (--rate HZ)")
@@ -768,7 +768,7 @@ def _decode(doc: dict, blob: bytes | bytearray, src: str, rate: float | None) ->
             raise _Bad(f"keyframes over {t1 - t0:g} s at {rate:g} Hz are more frames than this reader decodes")
         n = int(math.floor(span + 1e-3)) + 1  # float32 key times end a hair before the last frame
         _check_size(n, n_nodes)
-        times = t0 + ft * np.arange(n)
+        times = t0 + ft * np.arange(n, dtype=np.float64)
     J, N = n_nodes, len(times)
     rot = np.broadcast_to(normalize(rest_q)[None], (N, J, 4)).copy()
     trans = np.broadcast_to(rest_t[None], (N, J, 3)).copy()
@@ -802,7 +802,8 @@ def _decode(doc: dict, blob: bytes | bytearray, src: str, rate: float | None) ->
             if c >= n_nodes:
                 off = scaled(_vec(nodes[c].get("translation"), 3, f"node {c}: translation", [0, 0, 0]),
                              f"node {c}: translation")
-                end_sites.append((new[o], tuple(float(v) for v in off)))
+                x, y, z = (float(v) for v in off)
+                end_sites.append((new[o], (x, y, z)))
     offsets = rest_t
     if "offsets" in extras:
         off_list = extras["offsets"]
