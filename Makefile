@@ -4,7 +4,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 
-.PHONY: view-deps demo test bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
+.PHONY: view-deps demo test check bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
 
 # the C encoders (c/mkpla) are compiled into the package by pip (setup.py: cffi); a changed C source rebuilds
 $(STAMP): pyproject.toml Makefile setup.py c/mkpla_cffi.py $(wildcard c/mkpla/*.c c/mkpla/*.h)
@@ -33,8 +33,16 @@ view-deps:
 demo: $(STAMP)
 	$(BIN)/mocapkit demo
 
+# the whole suite, in parallel (one pytest-xdist worker per core), hypothesis' thorough "ci" profile;
+# docs/testing.md describes the markers, profiles and how to run one file
 test: $(STAMP) $(NODE_STAMP) view-deps
-	$(BIN)/python -m pytest -q
+	HYPOTHESIS_PROFILE=ci $(BIN)/python -m pytest -q -n auto --dist loadgroup
+
+# the edit loop (<= 90 s): the unit tests alone, hypothesis' quick "dev" profile; no real data, server,
+# browser, cluster, MCU or node. Static checks (ruff, mypy) go in this target too, before the tests.
+CHECK_MARKS := not shared and not slow and not browser and not pg and not dask and not mcu and not node
+check: $(STAMP)
+	HYPOTHESIS_PROFILE=dev $(BIN)/python -m pytest -q -n auto --dist loadgroup -m "$(CHECK_MARKS)"
 
 bench: $(STAMP)
 	$(BIN)/mocapkit bench --json > docs/bench.json
