@@ -33,16 +33,17 @@ view-deps:
 demo: $(STAMP)
 	$(BIN)/mocapkit demo
 
-# the whole suite, in parallel (one pytest-xdist worker per core), hypothesis' thorough "ci" profile;
-# docs/testing.md describes the markers, profiles and how to run one file
+# the whole suite, in parallel (one pytest-xdist worker per core; a file's tests stay on one worker, so
+# its module fixtures are made once), hypothesis' thorough "ci" profile; docs/testing.md describes the
+# markers, profiles and how to run one file
 test: $(STAMP) $(NODE_STAMP) view-deps
-	HYPOTHESIS_PROFILE=ci $(BIN)/python -m pytest -q -n auto --dist loadgroup
+	HYPOTHESIS_PROFILE=ci $(BIN)/python -m pytest -q -n auto --dist loadfile
 
 # the edit loop (<= 90 s): the unit tests alone, hypothesis' quick "dev" profile; no real data, server,
 # browser, cluster, MCU or node. Static checks (ruff, mypy) go in this target too, before the tests.
 CHECK_MARKS := not shared and not slow and not browser and not pg and not dask and not mcu and not node
 check: $(STAMP)
-	HYPOTHESIS_PROFILE=dev $(BIN)/python -m pytest -q -n auto --dist loadgroup -m "$(CHECK_MARKS)"
+	HYPOTHESIS_PROFILE=dev $(BIN)/python -m pytest -q -n auto --dist loadfile -m "$(CHECK_MARKS)"
 
 bench: $(STAMP)
 	$(BIN)/mocapkit bench --json > docs/bench.json
