@@ -69,6 +69,9 @@ def pytest_collection_modifyitems(config, items):
         for fx, mark in FIXTURE_MARKS.items():
             if fx in getattr(item, "fixturenames", ()):
                 item.add_marker(mark)
+        callspec = getattr(item, "callspec", None)
+        if callspec is not None and "postgresql" in map(str, callspec.params.values()):
+            item.add_marker("pg")
         stem = Path(str(item.fspath)).stem
         for mark in MODULE_MARKS.get(stem, ()):
             item.add_marker(mark)
