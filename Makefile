@@ -40,8 +40,8 @@ test: $(STAMP) $(NODE_STAMP) view-deps
 	HYPOTHESIS_PROFILE=ci $(BIN)/python -m pytest -q -n auto --dist loadfile
 
 # the edit loop (<= 90 s): the unit tests alone, hypothesis' quick "dev" profile; no real data, server,
-# browser, cluster, MCU or node. Static checks (ruff, mypy) go in this target too, before the tests.
-CHECK_MARKS := not shared and not slow and not browser and not pg and not dask and not mcu and not node
+# browser, cluster, MCU or node, no CLI/pipeline integration file. Static checks (ruff, mypy) go in this target too, before the tests.
+CHECK_MARKS := not shared and not slow and not integration and not browser and not pg and not dask and not mcu and not node
 check: $(STAMP)
 	HYPOTHESIS_PROFILE=dev $(BIN)/python -m pytest -q -n auto --dist loadfile -m "$(CHECK_MARKS)"
 

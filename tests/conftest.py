@@ -52,7 +52,11 @@ def _cap_examples(item) -> None:
 
 #: fixture name -> marker
 FIXTURE_MARKS = {"shared_data": "shared"}
-#: test module (file stem) -> markers of all its tests
+#: files whose tests run the command line or a whole pipeline on many inputs (the trial, robustness,
+#: CLI, batch and viewer-output files): marked "integration"; fnmatch patterns of the file stem
+INTEGRATION_FILES = ("test_trial_*", "test_robust_*", "test_cli", "test_cli_behaviour", "test_batch*",
+                     "test_view_export", "test_view_server", "test_segment_cli")
+#: test module (file stem) -> markers of all its tests (the needs no fixture shows)
 MODULE_MARKS = {
     "test_view_browser": ("browser", "slow"),
     "test_batch_dask": ("dask", "slow"),
@@ -63,16 +67,32 @@ MODULE_MARKS = {
 }
 
 
+def _slow_tests() -> set[str]:
+    """``file::function`` lines of tests/slow_tests.txt (tests measured at a second or more)."""
+    path = TESTS_DIR / "slow_tests.txt"
+    lines = path.read_text().splitlines() if path.is_file() else []
+    return {ln.strip() for ln in lines if ln.strip() and not ln.startswith("#")}
+
+
 def pytest_collection_modifyitems(config, items):
+    import fnmatch
+
     dev = _hsettings is not None and _hypothesis_profile() == "dev"
+    slow = _slow_tests()
     for item in items:
+        stem = Path(str(item.fspath)).stem
+        if f"{stem}.py::{getattr(item, 'originalname', item.name)}" in slow:
+            item.add_marker("slow")
+        if "clasp" in item.name.lower():  # claspy compiles its numba kernels on first use (~50 s)
+            item.add_marker("slow")
+        if any(fnmatch.fnmatch(stem, pat) for pat in INTEGRATION_FILES):
+            item.add_marker("integration")
         for fx, mark in FIXTURE_MARKS.items():
             if fx in getattr(item, "fixturenames", ()):
                 item.add_marker(mark)
         callspec = getattr(item, "callspec", None)
         if callspec is not None and "postgresql" in map(str, callspec.params.values()):
             item.add_marker("pg")
-        stem = Path(str(item.fspath)).stem
         for mark in MODULE_MARKS.get(stem, ()):
             item.add_marker(mark)
         if dev:
