@@ -5,7 +5,7 @@ STAMP := $(VENV)/.installed
 NODE_STAMP := $(VENV)/.node-installed
 DOCS_STAMP := $(VENV)/.docs-installed
 
-.PHONY: view-deps demo test docs lint bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
+.PHONY: view-deps demo test check docs lint bench bench-imu bench-batch bench-clip sweep fuzz clean pg-start pg-stop mcu
 
 # the C encoders (c/mkpla) are compiled into the package by pip (setup.py: cffi); a changed C source rebuilds
 $(STAMP): pyproject.toml Makefile setup.py c/mkpla_cffi.py $(wildcard c/mkpla/*.c c/mkpla/*.h)
@@ -34,8 +34,17 @@ view-deps:
 demo: $(STAMP)
 	$(BIN)/mocapkit demo
 
+# the whole suite, in parallel (one pytest-xdist worker per core; a file's tests stay on one worker, so
+# its module fixtures are made once), hypothesis' thorough "ci" profile; docs/testing.md describes the
+# markers, profiles and how to run one file
 test: $(STAMP) $(NODE_STAMP) view-deps
-	$(BIN)/python -m pytest -q
+	HYPOTHESIS_PROFILE=ci $(BIN)/python -m pytest -q -n auto --dist loadfile
+
+# the edit loop (<= 90 s): the unit tests alone, hypothesis' quick "dev" profile; no real data, server,
+# browser, cluster, MCU or node, no CLI/pipeline integration file; ruff and mypy first (make lint)
+CHECK_MARKS := not shared and not slow and not integration and not browser and not pg and not dask and not mcu and not node
+check: $(STAMP) lint
+	HYPOTHESIS_PROFILE=dev $(BIN)/python -m pytest -q -n auto --dist loadfile -m "$(CHECK_MARKS)"
 
 # Sphinx, furo and MyST (the [docs] extra), on top of the package
 $(DOCS_STAMP): $(STAMP) pyproject.toml

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_run import completed as run_here
 
 from mocapkit.io import read_imu_csv
 from mocapkit.pla import compress_to
@@ -40,7 +41,7 @@ def test_help_lists_every_command():
 
 def test_compress_json_and_points_are_input_rows(pelvis, tmp_path):
     out = tmp_path / "pts.csv"
-    r = run("compress", pelvis, "-o", out, "--method", "fastsw", "--threshold", "1e-3", "--json")
+    r = run_here("compress", pelvis, "-o", out, "--method", "fastsw", "--threshold", "1e-3", "--json")
     assert r.returncode == 0, r.stderr
     (rec,) = json.loads(r.stdout)
     for key in ("method", "threshold", "n_samples", "n_points", "icr", "aad_deg", "max_deg", "std_deg"):
@@ -62,7 +63,7 @@ def test_compress_json_and_points_are_input_rows(pelvis, tmp_path):
 @pytest.mark.parametrize("method", ["fastsw", "sw", "cplr", "swing", "anglesw"])
 def test_compress_max_angle_bound_holds_on_written_file(pelvis, tmp_path, method):
     out = tmp_path / f"{method}.csv"
-    r = run("compress", pelvis, "-o", out, "--method", method, "--max-angle", "1.5", "--json")
+    r = run_here("compress", pelvis, "-o", out, "--method", method, "--max-angle", "1.5", "--json")
     assert r.returncode == 0, r.stderr
     (rec,) = json.loads(r.stdout)
     sig = read_imu_csv(pelvis)
@@ -73,7 +74,7 @@ def test_compress_max_angle_bound_holds_on_written_file(pelvis, tmp_path, method
 
 
 def test_compress_target_icr(pelvis):
-    r = run("compress", pelvis, "--method", "cplr", "--target-icr", "0.1", "--json")
+    r = run_here("compress", pelvis, "--method", "cplr", "--target-icr", "0.1", "--json")
     assert r.returncode == 0, r.stderr
     (rec,) = json.loads(r.stdout)
     assert rec["icr"] <= 0.1
@@ -82,7 +83,7 @@ def test_compress_target_icr(pelvis):
 
 def test_compress_folder_to_folder(tests_data, tmp_path):
     out = tmp_path / "out"
-    r = run("compress", tests_data / "xio", "-o", out, "--threshold", "1e-3", "--json")
+    r = run_here("compress", tests_data / "xio", "-o", out, "--threshold", "1e-3", "--json")
     assert r.returncode == 0, r.stderr
     recs = json.loads(r.stdout)
     assert sorted(x["name"] for x in recs) == ["left-foot", "pelvis"]
@@ -91,9 +92,9 @@ def test_compress_folder_to_folder(tests_data, tmp_path):
 
 def test_decompress_times_from_and_rate(pelvis, tmp_path):
     pts = tmp_path / "pts.csv"
-    assert run("compress", pelvis, "-o", pts, "--method", "swing", "--threshold", "0.01").returncode == 0
+    assert run_here("compress", pelvis, "-o", pts, "--method", "swing", "--threshold", "0.01").returncode == 0
     full = tmp_path / "full.csv"
-    r = run("decompress", pts, "--times-from", pelvis, "-o", full)
+    r = run_here("decompress", pts, "--times-from", pelvis, "-o", full)
     assert r.returncode == 0, r.stderr
     sig = read_imu_csv(pelvis)
     rec = read_imu_csv(full)
@@ -103,7 +104,7 @@ def test_decompress_times_from_and_rate(pelvis, tmp_path):
     comp = compress_to(sig, "swing", threshold=0.01)
     assert np.allclose(rec.values, reconstruct_points(comp.times, comp.values, sig.times), atol=1e-12)
     grid = tmp_path / "grid.csv"
-    r = run("decompress", pts, "--rate", "100", "-o", grid)
+    r = run_here("decompress", pts, "--rate", "100", "-o", grid)
     assert r.returncode == 0, r.stderr
     g = read_imu_csv(grid)
     assert np.allclose(np.diff(g.times), 0.01)
@@ -185,14 +186,14 @@ def test_usage_errors_exit_2(pelvis, tmp_path):
 
 
 def test_demo_runs_on_bundled_data(tmp_path):
-    r = run("demo", "--out", tmp_path / "demo")
+    r = run_here("demo", "--out", tmp_path / "demo")
     assert r.returncode == 0, r.stderr
     assert "anglesw" in r.stderr
     assert len(list((tmp_path / "demo").glob("*/*.csv"))) == 6 * 7
 
 
 def test_sweep_small(tests_data, tmp_path):
-    r = run("sweep", tests_data / "xio", "--out", tmp_path / "sw", "--thresholds", "6")
+    r = run_here("sweep", tests_data / "xio", "--out", tmp_path / "sw", "--thresholds", "6")
     assert r.returncode == 0, r.stderr
     import csv
 
@@ -208,7 +209,7 @@ def test_sweep_small(tests_data, tmp_path):
 
 
 def test_bench_quick_json():
-    r = run("bench", "--quick", "--json")
+    r = run_here("bench", "--quick", "--json")
     assert r.returncode == 0, r.stderr
     recs = json.loads(r.stdout)
     methods = {(x["method"], x["mode"]) for x in recs if "ns_per_sample" in x}
@@ -219,23 +220,23 @@ def test_bench_quick_json():
 
 def test_rate_for_files_without_timestamps(tests_data, tmp_path):
     legacy = tests_data / "formats" / "legacy_xio.csv"
-    r = run("compress", legacy, "--threshold", "0")
+    r = run_here("compress", legacy, "--threshold", "0")
     assert r.returncode == 2 and "--rate" in r.stderr
     pts = tmp_path / "pts.csv"
-    r = run("compress", legacy, "--rate", "100", "--threshold", "1e-4", "-o", pts)
+    r = run_here("compress", legacy, "--rate", "100", "--threshold", "1e-4", "-o", pts)
     assert r.returncode == 0, r.stderr
     full = tmp_path / "full.csv"
-    r = run("decompress", pts, "--times-from", legacy, "--rate", "100", "-o", full)
+    r = run_here("decompress", pts, "--times-from", legacy, "--rate", "100", "-o", full)
     assert r.returncode == 0, r.stderr
     orig = read_imu_csv(legacy, rate=100)
     assert np.array_equal(read_imu_csv(full).times, orig.times)
 
 
 def test_optimal_method_cli(pelvis):
-    r = run("compress", pelvis, "--method", "optimal", "--max-angle", "2", "--json")
+    r = run_here("compress", pelvis, "--method", "optimal", "--max-angle", "2", "--json")
     assert r.returncode == 0, r.stderr
     (opt,) = json.loads(r.stdout)
-    r = run("compress", pelvis, "--method", "anglesw", "--max-angle", "2", "--json")
+    r = run_here("compress", pelvis, "--method", "anglesw", "--max-angle", "2", "--json")
     (ang,) = json.loads(r.stdout)
     assert opt["max_deg"] <= 2 + 1e-9 and opt["n_points"] <= ang["n_points"]
     r = run("stream", "--method", "optimal", "--max-angle", "2", stdin=pelvis.read_text())

@@ -4,19 +4,18 @@ from __future__ import annotations
 
 import itertools
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
+from cli_run import completed
 
 from mocapkit.errors import InvalidParameterError
+from mocapkit.evaluation.filtering import evaluate_synthetic, knot_f1, synthetic_signal
 from mocapkit.filters.additive import solve_additive
 from mocapkit.filters.api import fit, split_at_gaps
 from mocapkit.filters.chunks import build, chunk_ssr, fit_piece
 from mocapkit.filters.exact import solve_exact, ssr_curve
 from mocapkit.filters.ppa import fit_iterative
-from mocapkit.evaluation.filtering import evaluate_synthetic, knot_f1, synthetic_signal
 
 
 def brute_force(t, Y, order, K):
@@ -305,8 +304,7 @@ def test_cli_filter_auto_on_juggling_take(shared_data):
     assert static == ["base_1", "base_2", "base_3", "base_4", "base_5"]
     assert set(moving) == {"unnamed_6", "unnamed_8", "unnamed_10", "unnamed_16", "unnamed_17"}
     sel = ",".join([f"{b}:z" for b in moving] + static)
-    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "filter", str(tsv), "--markers", sel, "--auto", "--json"],
-                       capture_output=True, text=True)
+    r = completed("filter", str(tsv), "--markers", sel, "--auto", "--json")
     assert r.returncode == 0, r.stderr
     recs = {rec["name"]: rec for rec in json.loads(r.stdout)}
     for b in static:
@@ -322,9 +320,15 @@ def test_cli_filter_auto_on_juggling_take(shared_data):
     assert abs(np.median(acc) + 9.81) < 0.05 * 9.81
 
 
-def test_filter_eval_other_marker_names(tests_data, tmp_path):
+def test_filter_eval_other_marker_names(tests_data, tmp_path, monkeypatch):
     """``filter-eval --juggling`` on a TSV whose markers have other names (the tests/data excerpt
     relabelled): moving markers detected by the rule, or named with --balls; clear errors."""
+    import functools
+
+    import mocapkit.evaluation.filtering as filtering
+
+    # the runs share filter-eval's synthetic experiment (no input, the same result): computed once
+    monkeypatch.setattr(filtering, "evaluate_synthetic", functools.cache(filtering.evaluate_synthetic))
     src = (tests_data / "markers" / "juggling-qualisys-300hz-first120.tsv").read_text()
     lines = src.splitlines()
     i = next(k for k, ln in enumerate(lines) if ln.startswith("MARKER_NAMES"))
@@ -338,29 +342,28 @@ def test_filter_eval_other_marker_names(tests_data, tmp_path):
 
     labels = load_markers(tsv).labels
     assert "Table1" in labels and not any(lab.startswith("base") for lab in labels)
-    run = [sys.executable, "-m", "mocapkit.cli", "filter-eval", "--juggling", str(tsv), "--sizes", ""]
-    r = subprocess.run(run + ["--out", str(tmp_path / "a")], capture_output=True, text=True)
+    run = ["filter-eval", "--juggling", str(tsv), "--sizes", ""]
+    r = completed(*run, "--out", str(tmp_path / "a"))
     assert r.returncode == 0, r.stderr
     jug = json.loads((tmp_path / "a" / "juggling.json").read_text())
     assert set(jug["controls"]) == {f"Table{k}" for k in range(1, 6)}
     assert all(c["knots"] == 0 for c in jug["controls"].values())
     assert jug["balls"] and not any(b.startswith("Table") for b in jug["balls"])
     ball = next(iter(jug["balls"]))
-    r = subprocess.run(run + ["--out", str(tmp_path / "b"), "--balls", ball, "--controls", "Table2"],
-                       capture_output=True, text=True)
+    r = completed(*run, "--out", str(tmp_path / "b"), "--balls", ball, "--controls", "Table2")
     assert r.returncode == 0, r.stderr
     jug = json.loads((tmp_path / "b" / "juggling.json").read_text())
     assert list(jug["balls"]) == [ball] and list(jug["controls"]) == ["Table2"]
-    r = subprocess.run(run + ["--out", str(tmp_path / "c"), "--balls", "unnamed_6,Ball9"], capture_output=True, text=True)
+    r = completed(*run, "--out", str(tmp_path / "c"), "--balls", "unnamed_6,Ball9")
     assert r.returncode == 2 and "'Ball9'" in r.stderr and "Traceback" not in r.stderr
     assert not (tmp_path / "c").exists()  # checked before any work
 
 
 def test_cli_filter_json_and_csv(tests_data, tmp_path):
     tsv = tests_data / "markers" / "juggling-qualisys-300hz-first120.tsv"
-    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "filter", str(tsv), "--markers", "unnamed_6:z",
-                        "--order", "2", "--penalty", "100", "--json", "-o", str(tmp_path / "f.csv"),
-                        "--plot", str(tmp_path / "f.png")], capture_output=True, text=True)
+    r = completed("filter", str(tsv), "--markers", "unnamed_6:z",
+                  "--order", "2", "--penalty", "100", "--json", "-o", str(tmp_path / "f.csv"),
+                  "--plot", str(tmp_path / "f.png"))
     assert r.returncode == 0, r.stderr
     (rec,) = json.loads(r.stdout)
     assert {"name", "loss", "n_knots", "pieces"} <= set(rec)
@@ -370,18 +373,16 @@ def test_cli_filter_json_and_csv(tests_data, tmp_path):
     rows = np.loadtxt(tmp_path / "f.csv", delimiter=",", skiprows=1)
     assert rows[0, 1] == pytest.approx(p["coeffs"][0], rel=1e-9)
     assert (tmp_path / "f.png").stat().st_size > 10_000
-    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "filter", str(tsv), "--markers", "nope"],
-                       capture_output=True, text=True)
+    r = completed("filter", str(tsv), "--markers", "nope")
     assert r.returncode == 2 and "penalty" in r.stderr
-    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "filter", str(tsv), "--markers", "nope", "--auto"],
-                       capture_output=True, text=True)
+    r = completed("filter", str(tsv), "--markers", "nope", "--auto")
     assert r.returncode == 2 and "nope" in r.stderr
 
 
 def test_cli_filter_c3d_labels_with_colons(shared_data, tmp_path):
     c3d = shared_data / "c3d" / "Vicon.c3d"
-    r = subprocess.run([sys.executable, "-m", "mocapkit.cli", "filter", str(c3d), "--markers",
-                        "Daphnee:ASISr,Daphnee:ASISr:z", "--auto", "--json"], capture_output=True, text=True)
+    r = completed("filter", str(c3d), "--markers",
+                  "Daphnee:ASISr,Daphnee:ASISr:z", "--auto", "--json")
     assert r.returncode == 0, r.stderr
     recs = json.loads(r.stdout)
     assert recs[0]["components"] == ["Daphnee:ASISr_x", "Daphnee:ASISr_y", "Daphnee:ASISr_z"]

@@ -31,15 +31,34 @@ FREQS = (0.010, 0.016, 0.023, 0.031, 0.040)  # cycles per sample of each regime'
 PHIS = (0.9, 0.6, 0.8, 0.7, 0.85)  # AR(1) coefficient of each regime's second source
 
 
+def _helmert(n: int) -> np.ndarray:
+    """The ``(n - 1, n)`` Helmert rows: an orthonormal basis of the zero-sum vectors in closed form.
+
+    (The singular vectors of the centring matrix, used before, are any basis of that space, as its
+    singular value 1 is repeated: LAPACK builds chose different ones, and the test signal with them.)"""
+    h = np.zeros((n - 1, n))
+    for k in range(1, n):
+        h[k - 1, :k] = 1.0
+        h[k - 1, k] = -float(k)
+        h[k - 1] /= np.sqrt(k * (k + 1.0))
+    return h
+
+
+def _orthonormal(a: np.ndarray) -> np.ndarray:
+    """Q of the QR factorisation of ``a`` with R's diagonal positive (unique; LAPACK leaves the signs open)."""
+    q, r = np.linalg.qr(a)
+    return q * np.where(np.diag(r) < 0, -1.0, 1.0)
+
+
 def _regime_types(d: int, seed: int = 7, spread: float = 4.0) -> list[tuple]:
     """Five regimes: means at the vertices of a regular simplex (pairwise distance ``spread *
     sqrt(5/4)``), each regime living in its own random 2-D subspace of the ``d`` channels."""
     rng = np.random.default_rng(seed)
     centred = np.eye(N_TYPES) - 1.0 / N_TYPES
-    simplex = centred @ np.linalg.svd(centred)[2][: N_TYPES - 1].T
+    simplex = centred @ _helmert(N_TYPES).T
     types = []
     for t in range(N_TYPES):
-        basis = np.linalg.qr(rng.normal(size=(d, d)))[0][:, :2]
+        basis = _orthonormal(rng.normal(size=(d, d)))[:, :2]
         mean = np.zeros(d)
         mean[: N_TYPES - 1] = spread * simplex[t] / np.linalg.norm(simplex[t])
         types.append((mean, basis, FREQS[t], PHIS[t]))
@@ -149,8 +168,8 @@ def test_pca_sees_a_pure_change_of_subspace():
     """Same mean, same sources, same variance: only the 2-D subspace changes at sample 600."""
     rng = np.random.default_rng(3)
     d, n = 6, 1200
-    q1 = np.linalg.qr(rng.normal(size=(d, d)))[0][:, :2]
-    q2 = np.linalg.qr(rng.normal(size=(d, d)))[0][:, :2]
+    q1 = _orthonormal(rng.normal(size=(d, d)))[:, :2]
+    q2 = _orthonormal(rng.normal(size=(d, d)))[:, :2]
     src = lfilter([0.3], [1.0, -0.95], rng.normal(size=(n, 2)), axis=0) * 3.0
     x = np.vstack([src[:600] @ q1.T, src[600:] @ q2.T]) + 0.05 * rng.normal(size=(n, d))
     cuts = PCASegmenter().fit_predict(x)

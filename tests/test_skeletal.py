@@ -209,6 +209,7 @@ def test_max_position_error_on_shared_files(shared_bvh):
         assert position_errors(m, comp.decode()).max() <= 1.0 * (1 + 1e-9)
 
 
+@pytest.mark.node
 @pytest.mark.parametrize("suffix", [".glb", ".gltf"])
 def test_gltf_valid_and_keyframes(tests_data, tmp_path, suffix):
     node, mods = gltf_validator()

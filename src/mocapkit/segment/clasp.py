@@ -58,7 +58,8 @@ class ClaSPSegmenter(Segmenter):
         Analyse every ``downsample``-th frame only; cuts are mapped back (``cut * downsample``).
         Default ``1``.
     n_jobs
-        Threads of claspy. Default ``-1`` (all cores).
+        Threads of claspy. Default ``-1``: all the threads numba may use (``NUMBA_NUM_THREADS``; claspy
+        itself would ask for every core, which numba refuses when that variable is lower).
     random_state
         claspy's seed. Default ``2357`` (claspy's).
 
@@ -133,6 +134,14 @@ class ClaSPSegmenter(Segmenter):
         self.n_jobs = int(n_jobs)
         self.random_state = int_param(random_state, "random_state", 0)
 
+    def _threads(self) -> int:
+        """``n_jobs``, with ``-1`` (any value below 1) as numba's thread limit."""
+        if self.n_jobs >= 1:
+            return self.n_jobs
+        from numba import config
+
+        return int(config.NUMBA_NUM_THREADS)
+
     def fit(self, X) -> ClaSPSegmenter:
         """Segment ``X`` and store the cuts.
 
@@ -175,7 +184,7 @@ class ClaSPSegmenter(Segmenter):
                 validation=None if known else self.validation,
                 threshold=self.threshold,
                 excl_radius=self.excl_radius,
-                n_jobs=self.n_jobs,
+                n_jobs=self._threads(),
                 random_state=self.random_state,
             )
             series = np.ascontiguousarray(z[:, 0] if z.shape[1] == 1 else z)
