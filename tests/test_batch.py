@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 
 from cli_run import run
-from mocapkit.jobs.inputs import expand_inputs, output_bases
 from mocapkit.batch.journal import Journal, read_journal
 from mocapkit.batch.results import read_results
 from mocapkit.errors import InvalidParameterError, MocapFormatError
+from mocapkit.jobs.inputs import expand_inputs, output_bases
 
 pytest.importorskip("pyarrow", reason="the batch results need pyarrow (mocapkit[batch])")
 

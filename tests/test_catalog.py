@@ -618,9 +618,8 @@ def test_duckdb_read_only_connection_refuses_writes_by_itself(tmp_path, sql):
 
     db = _small_catalog(tmp_path / "motion.duckdb")
     before = _state(db)
-    with open_catalog(str(db), read_only=True) as c:
-        with pytest.raises(MocapError):
-            c.query(sql.format(d=tmp_path))
+    with open_catalog(str(db), read_only=True) as c, pytest.raises(MocapError):
+        c.query(sql.format(d=tmp_path))
     assert _state(db) == before
 
 
@@ -740,7 +739,7 @@ def _tz_instant(text: str):
     import datetime as dt
 
     t = dt.datetime.fromisoformat(text if text[-3] in "+-" and ":" not in text[-6:] else text)
-    return t.astimezone(dt.timezone.utc)
+    return t.astimezone(dt.UTC)
 
 
 def test_cli_query_prints_every_duckdb_type_as_json(tmp_path):
@@ -758,7 +757,7 @@ def test_cli_query_prints_every_duckdb_type_as_json(tmp_path):
         if col == "dec_big":
             assert exact[col] == Decimal(want)  # every digit, as a JSON number
         elif col == "ts_tz":
-            assert _tz_instant(row[col]) == dt.datetime(2024, 1, 2, 3, 4, 5, tzinfo=dt.timezone.utc)
+            assert _tz_instant(row[col]) == dt.datetime(2024, 1, 2, 3, 4, 5, tzinfo=dt.UTC)
         else:
             assert row[col] == want, col
 
@@ -773,7 +772,7 @@ def test_cli_query_prints_every_duckdb_type_as_csv(tmp_path):
     assert header == [c for c, *_ in TYPES]
     for (col, _, _, want), got in zip(TYPES, line):
         if col == "ts_tz":
-            assert _tz_instant(got) == dt.datetime(2024, 1, 2, 3, 4, 5, tzinfo=dt.timezone.utc)
+            assert _tz_instant(got) == dt.datetime(2024, 1, 2, 3, 4, 5, tzinfo=dt.UTC)
         else:
             assert got == want, col
 

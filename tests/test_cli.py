@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cli_run import completed as run_here
 
+from cli_run import completed as run_here
 from mocapkit.io import read_imu_csv
 from mocapkit.pla import compress_to
 from mocapkit.pla.decode import reconstruct_points

@@ -17,13 +17,13 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from mocapkit.clip import Clip, encode_clip, position_errors
-from mocapkit.jobs.readers import open_clip
+from mocapkit.clip.codec import entropy_decode, level_step, pack_block, steps_table, unpack_block, unpack_pose
+from mocapkit.clip.container import mkc_bytes
 from mocapkit.clip.keys import corridor_keys
 from mocapkit.clip.metric import worst_errors
 from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io.loaders import load_motion, unit_cm
-from mocapkit.clip.container import mkc_bytes
-from mocapkit.clip.codec import entropy_decode, level_step, pack_block, steps_table, unpack_block, unpack_pose
+from mocapkit.jobs.readers import open_clip
 from mocapkit.rotvec import exp_map, log_map
 from mocapkit.skeleton import Motion, forward_kinematics
 

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-from reference_kinematics import naive_end_sites, naive_positions
 from scipy.spatial.transform import Rotation
 
 from mocapkit import cli
@@ -21,6 +20,7 @@ from mocapkit.clip.budget import track_tolerances
 from mocapkit.io.loaders import load_motion, unit_cm
 from mocapkit.jobs.readers import open_clip
 from mocapkit.skeleton import Motion, Skeleton, forward_kinematics
+from reference_kinematics import naive_end_sites, naive_positions
 
 TESTS_FILES = [("bvh/walk-meredith-60.bvh", None, 2.54), ("bvh/perception-neuron-freya-12.bvh", None, None),
                ("cmu/86_01_first60.amc", "cmu/86.asf", None), ("cmu/13_29_first20.amc", "cmu/86.asf", None)]

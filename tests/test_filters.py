@@ -7,8 +7,8 @@ import json
 
 import numpy as np
 import pytest
-from cli_run import completed
 
+from cli_run import completed
 from mocapkit.errors import InvalidParameterError
 from mocapkit.evaluation.filtering import evaluate_synthetic, knot_f1, synthetic_signal
 from mocapkit.filters.additive import solve_additive

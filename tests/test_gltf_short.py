@@ -15,9 +15,9 @@ import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.skeletal.bvh import read_bvh
 from mocapkit.io.formats.gltf import SHORT_KEY_ANGLE, quantize_rotations, read_gltf, write_gltf
 from mocapkit.io.loaders import load_motion
+from mocapkit.io.skeletal.bvh import read_bvh
 from mocapkit.jobs import compress_job
 from mocapkit.jobs.gltf_out import every_frame, readback_error, storage_error_bound
 from mocapkit.pla.skeletal import compress_motion

@@ -583,10 +583,9 @@ def test_atomic_write_failure_keeps_old_file(tmp_path: Path) -> None:
     path = tmp_path / "keep.txt"
     atomic_write_text(path, "old\n")
     os.chmod(path, 0o640)
-    with pytest.raises(RuntimeError):
-        with atomic_writer(path) as fh:
-            fh.write("new, half written")
-            raise RuntimeError("boom")
+    with pytest.raises(RuntimeError), atomic_writer(path) as fh:
+        fh.write("new, half written")
+        raise RuntimeError("boom")
     assert path.read_text() == "old\n"
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
     atomic_write_text(path, "a\nb\n")
@@ -612,9 +611,9 @@ _BASES = {
         f"{917418209 + 20060 * i},0.85{i:02d},-0.04{i:02d},-0.52{i:02d},-0.03{i:02d}\n" for i in range(12)
     )).encode(), None),
     "xsens": ((
-        "// Sample rate: 50.0Hz\nPacketCounter\tAcc_X\tQuat_w\tQuat_x\tQuat_y\tQuat_z\n"
-        "65533\t0.1\t1\t0\t0\t0\n65535\t0.2\t0.5\t0.5\t0.5\t0.5\n1\t0.3\t0\t1\t0\t0\n2\t0.4\t0\t0\t1\t0\n"
-    ).encode(), None),
+        b"// Sample rate: 50.0Hz\nPacketCounter\tAcc_X\tQuat_w\tQuat_x\tQuat_y\tQuat_z\n"
+        b"65533\t0.1\t1\t0\t0\t0\n65535\t0.2\t0.5\t0.5\t0.5\t0.5\n1\t0.3\t0\t1\t0\t0\n2\t0.4\t0\t0\t1\t0\n"
+    ), None),
     "legacy": (b"Packet number,Element 1,Element 2,Element 3,Element 4\n"
                b"1,1,0,0,0\n2,0.5,0.5,0.5,0.5\n4,0,1,0,0\n", 100.0),
     "generic": (("\ufeff" + GENERIC.replace("\n", "\r\n")).encode(), None),

@@ -12,16 +12,16 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+
 from import_graph import import_graph as _import_graph
 from import_graph import mocapkit_imports as _mocapkit_imports
 from import_graph import reachable as _reachable
-
 from mocapkit.errors import InvalidSignalError, MocapFormatError
+from mocapkit.io.loaders import kind_of, load_markers, write_markers
 from mocapkit.io.markers.c3d import check_c3d_structure, read_c3d, write_c3d
 from mocapkit.io.markers.qtm import read_qtm_tsv, read_qtm_tsv_text
-from mocapkit.io.loaders import kind_of, load_markers, write_markers
-from mocapkit.io.markers.wide_csv import read_markers_csv, write_markers_csv
 from mocapkit.io.markers.vicon_csv import read_vicon_csv
+from mocapkit.io.markers.wide_csv import read_markers_csv, write_markers_csv
 from mocapkit.markers import Markers, make_unique_labels
 
 ezc3d = pytest.importorskip("ezc3d")

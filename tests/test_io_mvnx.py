@@ -20,8 +20,8 @@ from scipy.spatial.transform import Rotation
 
 import make_mvnx
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.skeletal.bvh import read_bvh
 from mocapkit.io.loaders import kind_of, load_motion
+from mocapkit.io.skeletal.bvh import read_bvh
 from mocapkit.io.skeletal.mvnx import ROOT_CHANNELS, read_mvnx
 from mocapkit.skeleton import forward_kinematics
 

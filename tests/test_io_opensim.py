@@ -15,7 +15,6 @@ from hypothesis import strategies as st
 
 from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io.loaders import kind_of, load_markers
-from mocapkit.io.markers.wide_csv import write_markers_csv
 from mocapkit.io.markers.opensim import (
     read_opensim_signals,
     read_orientations,
@@ -26,6 +25,7 @@ from mocapkit.io.markers.opensim import (
     write_table_csv,
     write_trc,
 )
+from mocapkit.io.markers.wide_csv import write_markers_csv
 from mocapkit.markers import Markers
 from mocapkit.motion import Signal
 

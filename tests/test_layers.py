@@ -9,6 +9,8 @@ import shutil
 from pathlib import Path
 
 import pytest
+
+import mocapkit
 from import_graph import (
     LAYERS,
     import_graph,
@@ -18,8 +20,6 @@ from import_graph import (
     names_from_root,
     package_cycles,
 )
-
-import mocapkit
 
 SRC = Path(mocapkit.__file__).parent
 

@@ -31,6 +31,10 @@ from scipy.spatial.transform import Rotation
 from mocapkit import cli
 from mocapkit.errors import InvalidParameterError, MocapFormatError
 from mocapkit.io import load_signals
+from mocapkit.jobs.packet_compress import compress_packets_job
+from mocapkit.jobs.packets import decode_at, decompress_packets_job
+from mocapkit.jobs.readers import read_mkp
+from mocapkit.pla import anglesw
 from mocapkit.pla.packet_layout import (
     Header,
     Sensor,
@@ -41,10 +45,6 @@ from mocapkit.pla.packet_layout import (
     mkp_bytes,
     parse_packet,
 )
-from mocapkit.jobs.readers import read_mkp
-from mocapkit.jobs.packet_compress import compress_packets_job
-from mocapkit.jobs.packets import decode_at, decompress_packets_job
-from mocapkit.pla import anglesw
 from mocapkit.pla.packets import EPS, default_bits, packetise
 
 DATA = Path(__file__).resolve().parent / "data"

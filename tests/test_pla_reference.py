@@ -30,8 +30,8 @@ from scipy.spatial.transform import Rotation, Slerp
 import reference_pla as ref
 from mocapkit.motion import Signal
 from mocapkit.pla.base import Compressed, Encoder, compress
-from mocapkit.pla.metrics import evaluate
 from mocapkit.pla.decode import reconstruct_points
+from mocapkit.pla.metrics import evaluate
 from mocapkit.pla.tune import compress_to
 from mocapkit.quat import angular_distance, hemisphere_continuous, slerp
 

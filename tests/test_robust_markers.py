@@ -25,15 +25,15 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mocapkit.errors import MocapFormatError, MocapWarning
-from mocapkit.io.text import input as textinput
-from mocapkit.io.markers.c3d import check_c3d_structure, read_c3d, write_c3d
-from mocapkit.io.skeletal.labels import read_frame_labels, read_haca_labels
 from mocapkit.io.loaders import kind_of
-from mocapkit.io.skeletal.mvnx import read_mvnx
+from mocapkit.io.markers.c3d import check_c3d_structure, read_c3d, write_c3d
 from mocapkit.io.markers.opensim import read_opensim_signals, read_table, read_trc
 from mocapkit.io.markers.qtm import read_qtm_tsv
 from mocapkit.io.markers.vicon_csv import read_vicon_csv
 from mocapkit.io.markers.wide_csv import read_markers_csv, write_markers_csv
+from mocapkit.io.skeletal.labels import read_frame_labels, read_haca_labels
+from mocapkit.io.skeletal.mvnx import read_mvnx
+from mocapkit.io.text import input as textinput
 from mocapkit.markers import Markers
 
 DATA = Path(__file__).resolve().parent / "data"

@@ -141,10 +141,9 @@ def test_failure_inside_the_block_leaves_the_old_file_and_no_temporary(tmp_path,
         monkeypatch.setattr(atomic, "_open_unnamed", lambda folder: None)
     p = tmp_path / "a.csv"
     p.write_text("old\n")
-    with pytest.raises(type(exc)):
-        with atomic_writer(p) as fh:
-            fh.write("half of the new contents")
-            raise exc
+    with pytest.raises(type(exc)), atomic_writer(p) as fh:
+        fh.write("half of the new contents")
+        raise exc
     assert p.read_text() == "old\n"
     assert listing(tmp_path) == ["a.csv"]
     with pytest.raises(RuntimeError):  # a new file is not created either

@@ -21,10 +21,10 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import MocapFormatError, MocapWarning
+from mocapkit.io.formats.gltf import read_gltf, write_gltf
 from mocapkit.io.skeletal import bvh as bvh_mod
 from mocapkit.io.skeletal.amc import read_amc, read_amc_text, read_asf, read_asf_text, write_amc
 from mocapkit.io.skeletal.bvh import parse_bvh, read_bvh, write_bvh
-from mocapkit.io.formats.gltf import read_gltf, write_gltf
 from mocapkit.io.text.numbers import MAX_ABS, parse_number
 from mocapkit.pla import skeletal as pla_skeletal
 from mocapkit.pla.decode import reconstruct

@@ -9,7 +9,6 @@ import pytest
 from scipy.signal import lfilter
 
 from mocapkit.errors import InvalidParameterError, InvalidSignalError
-from mocapkit.segment.base import Segmenter
 from mocapkit.segment import (
     BASELINES,
     ClaSPSegmenter,
@@ -19,6 +18,7 @@ from mocapkit.segment import (
     PCASegmenter,
     PELTSegmenter,
 )
+from mocapkit.segment.base import Segmenter
 from mocapkit.segment.labelruns import merge_short_runs, mode_filter
 from mocapkit.segment.pelt import _prefix_cost
 

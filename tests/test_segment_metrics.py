@@ -23,12 +23,11 @@ from mocapkit.io.skeletal.labels import (
 )
 from mocapkit.segment.metrics import (
     F1Result,
-    frame_agreement,
     covering,
     f1_margin,
+    frame_agreement,
     segments_from_cuts,
 )
-
 
 # --------------------------------------------------------------------------------------------------
 # independent helpers (frame sets, exhaustive enumeration)

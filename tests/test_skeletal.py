@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from mocapkit.errors import MocapFormatError
-from mocapkit.io.skeletal.bvh import parse_bvh, read_bvh, write_bvh
 from mocapkit.io.formats.gltf import write_gltf
+from mocapkit.io.skeletal.bvh import parse_bvh, read_bvh, write_bvh
 from mocapkit.pla.skeletal import compress_motion, position_errors
 from mocapkit.skeleton import forward_kinematics
 from reference_kinematics import gltf_validator

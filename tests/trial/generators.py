@@ -59,7 +59,7 @@ def amc_for_chain(n_bones: int, n_frames: int = 3) -> str:
 
 def qtm_claim(n_markers: int = 1_000_000_000, rows: int = 20) -> str:
     """A Qualisys TSV whose header claims ``n_markers`` markers (the data hold 2)."""
-    head = ["NO_OF_FRAMES\t{}".format(rows), "NO_OF_CAMERAS\t8", f"NO_OF_MARKERS\t{n_markers}",
+    head = [f"NO_OF_FRAMES\t{rows}", "NO_OF_CAMERAS\t8", f"NO_OF_MARKERS\t{n_markers}",
             "FREQUENCY\t100", "NO_OF_ANALOG\t0", "ANALOG_FREQUENCY\t0", "DESCRIPTION\t--", "TIME_STAMP\t2020-01-01",
             "DATA_INCLUDED\t3D", "MARKER_NAMES\ta\tb", "TRAJECTORY_TYPES\tMeasured\tMeasured"]
     head.append("Frame\tTime\ta X\ta Y\ta Z\tb X\tb Y\tb Z")
