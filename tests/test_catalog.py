@@ -271,7 +271,7 @@ def test_same_answers_on_duckdb_and_postgresql(dataset, tmp_path):
             with _open(url) as c:
                 answers[url] = [(c.query(q)[0], _norm(c.query(q)[1])) for q in QUERIES]
                 answers[url].append(([], [_counts(url)[t] for t in TABLES]))
-        for q, (a, b) in zip(QUERIES + ["counts"], zip(answers[duck], answers[pg])):
+        for q, (a, b) in zip(QUERIES + ["counts"], zip(answers[duck], answers[pg], strict=True), strict=True):
             assert a[1] == b[1], f"engines disagree on: {q}"
             assert a[1] or q == QUERIES[5], f"query gave nothing (nothing compared): {q}"
 
@@ -487,7 +487,7 @@ def test_cli_import_and_query_formats(tmp_path, tests_data):
     assert code == 0, err
     table = list(csv.reader(io.StringIO(out)))
     assert table[0] == cols and len(table) == len(rows) + 1
-    for line, r in zip(table[1:], rows):
+    for line, r in zip(table[1:], rows, strict=True):
         assert line[0] == r[0] and int(line[2]) == r[2] and float(line[3]) == r[3]
         assert line[4] == ("" if r[4] is None else r[4])
     # table: every value on stdout, a row count caption
@@ -770,7 +770,7 @@ def test_cli_query_prints_every_duckdb_type_as_csv(tmp_path):
     assert code == 0, err
     header, line = list(csv.reader(io.StringIO(out)))
     assert header == [c for c, *_ in TYPES]
-    for (col, _, _, want), got in zip(TYPES, line):
+    for (col, _, _, want), got in zip(TYPES, line, strict=True):
         if col == "ts_tz":
             assert _tz_instant(got) == dt.datetime(2024, 1, 2, 3, 4, 5, tzinfo=dt.UTC)
         else:

@@ -92,7 +92,7 @@ def parse_payload(payload: bytes, n: int, T: int) -> list[tuple[int, int, np.nda
             f.append(n - 1)
         frames.append(np.array(f))
     out = []
-    for (level, order, K), f in zip(head, frames):
+    for (level, order, K), f in zip(head, frames, strict=True):
         q = np.zeros((K, 3), dtype=np.int64)
         for c in range(3):
             for i in range(K):
@@ -242,7 +242,7 @@ def test_block_payload_round_trips_keys_exactly(n, T, seed):
     tracks = _random_tracks(rng, n, T)
     payload = pack_block(n, tracks)
     parsed = parse_payload(payload, n, T)
-    for (lv, order, f, q), (lv2, order2, f2, q2) in zip(tracks, parsed):
+    for (lv, order, f, q), (lv2, order2, f2, q2) in zip(tracks, parsed, strict=True):
         assert (lv, order) == (lv2, order2)
         assert np.array_equal(f, f2) and np.array_equal(q, q2)
     bases = rng.uniform(1e-6, 1e-2, size=T)

@@ -25,7 +25,7 @@ def brute_force(t, Y, order, K):
     for k in range(0, n // (order + 1)):
         for ks in itertools.combinations(range(order + 1, n - order), k):
             kn = [0, *ks, n]
-            if any(b - a < order + 1 for a, b in zip(kn[:-1], kn[1:])):
+            if any(b - a < order + 1 for a, b in zip(kn[:-1], kn[1:], strict=True)):
                 continue
             pp = build(t, Y, kn, order, K)
             if best is None or pp.loss < best.loss - 1e-12:
@@ -73,7 +73,7 @@ def test_exact_with_nan_rows_equals_brute_force(seed):
     for k in range(0, n):
         for ks in itertools.combinations(range(1, n), k):
             kn = [0, *ks, n]
-            if any(valid[a:b].sum() < order + 1 for a, b in zip(kn[:-1], kn[1:])):
+            if any(valid[a:b].sum() < order + 1 for a, b in zip(kn[:-1], kn[1:], strict=True)):
                 continue
             pp = build(t, Y, kn, order, K)
             if best is None or pp.loss < best.loss - 1e-12:
@@ -89,7 +89,7 @@ def test_iterative_loss_never_increases(seed):
     y = y + rng.normal(0, 0.05, y.shape)
     _, hist = fit_iterative(t, y, int(rng.integers(0, 3)), float(rng.uniform(0.01, 0.5)), init_chunk=int(rng.integers(3, 40)))
     assert len(hist) >= 4
-    assert all(b <= a + 1e-12 for a, b in zip(hist[:-1], hist[1:])), hist
+    assert all(b <= a + 1e-12 for a, b in zip(hist[:-1], hist[1:], strict=True)), hist
 
 
 def test_chunk_fit_equals_numpy_polynomial():
@@ -111,7 +111,7 @@ def test_ssr_curve_is_non_increasing_and_exact():
     rng = np.random.default_rng(3)
     t, Y = random_piecewise(rng, 12, 1)
     curve = ssr_curve(t, Y, 1, max_knots=4)
-    assert all(b <= a + 1e-12 for a, b in zip(curve[:-1], curve[1:]))
+    assert all(b <= a + 1e-12 for a, b in zip(curve[:-1], curve[1:], strict=True))
     best2 = min(build(t, Y, [0, a, b, 12], 1, 0).ssr for a, b in itertools.combinations(range(2, 11), 2) if b - a >= 2)
     assert curve[2] == pytest.approx(best2, rel=1e-9)
 
@@ -214,7 +214,7 @@ def test_additive_solver_equals_brute_force(seed):
     for k in range(n):
         for ks in itertools.combinations(range(1, n), k):
             kn = [0, *ks, n]
-            if k and any(valid[a:b].sum() < msize for a, b in zip(kn[:-1], kn[1:])):
+            if k and any(valid[a:b].sum() < msize for a, b in zip(kn[:-1], kn[1:], strict=True)):
                 continue
             best = min(best, build(t, Y, kn, order, 0.0).ssr + lam * k)
     r = solve_additive(t, Y, order, lam, min_size=None if seed % 3 == 0 else msize)

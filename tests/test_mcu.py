@@ -161,7 +161,7 @@ def test_points_do_not_depend_on_the_first_tick(elf, excerpts, tmp_path):
 def _emitted(signals, jobs, results) -> np.ndarray:
     """Per push: did it return a point (the first push, or the previous sample became a point)."""
     out = []
-    for j, r in zip(jobs, results):
+    for j, r in zip(jobs, results, strict=True):
         n = len(signals[j.signal].t)
         e = np.zeros(n, bool)
         e[0] = True
@@ -318,7 +318,7 @@ def test_mkp_push_count_includes_anglesw_and_the_packet_work(mkp_elf, mkp_image,
     assert over.min() >= 100          # quantise + dequantise (4 floors, sqrts) at least
     sent = np.zeros(len(c_mkp), bool)
     start = 0
-    for j, r in zip(jobs, results):
+    for j, r in zip(jobs, results, strict=True):
         n = len(sigs[j.signal].t)
         at = r.sent_at[r.sent_at < n]
         sent[start + at] = True

@@ -208,7 +208,7 @@ def excerpt():
 
 
 def _file(packets, bits, angle_deg, names=("s",), rates=(50.0,), pbytes=20) -> bytes:
-    hdr = Header(bits, pbytes, angle_deg, 1000, tuple(Sensor(n, r, 0.0) for n, r in zip(names, rates)))
+    hdr = Header(bits, pbytes, angle_deg, 1000, tuple(Sensor(n, r, 0.0) for n, r in zip(names, rates, strict=True)))
     return mkp_bytes(hdr, packets)
 
 

@@ -236,7 +236,7 @@ def _smooth_path(rng, n: int, speed: float) -> np.ndarray:
 
 def _write_generic(path: Path, t, q) -> Path:
     path.write_text("time,w,x,y,z\n" + "".join(f"{ti!r},{a!r},{b!r},{c!r},{d!r}\n"
-                                               for ti, (a, b, c, d) in zip(np.asarray(t).tolist(), q.tolist())))
+                                               for ti, (a, b, c, d) in zip(np.asarray(t).tolist(), q.tolist(), strict=True)))
     return path
 
 
@@ -269,7 +269,7 @@ def test_every_decode_path_is_within_the_bound_or_refuses(tmp_path_factory, stre
         c = 100 + step * k
         src = tmp / "o.csv"
         src.write_text("Packet number,Element 1,Element 2,Element 3,Element 4\n" + "".join(
-            f"{int(ci)},{a!r},{b!r},{x!r},{d!r}\n" for ci, (a, b, x, d) in zip(c.tolist(), q.tolist())))
+            f"{int(ci)},{a!r},{b!r},{x!r},{d!r}\n" for ci, (a, b, x, d) in zip(c.tolist(), q.tolist(), strict=True)))
         opts = ("--rate", repr(rate))
     else:
         t = (k + rng.uniform(-jitter, jitter, n) * (k > 0)) / rate
@@ -277,7 +277,7 @@ def test_every_decode_path_is_within_the_bound_or_refuses(tmp_path_factory, stre
             us = np.round(t * 1e6).astype(np.int64) + int(epoch * 1e6)
             src = tmp / "o.csv"
             src.write_text("Timestamp (us),W,X,Y,Z\n" + "".join(
-                f"{int(u)},{a!r},{b!r},{x!r},{d!r}\n" for u, (a, b, x, d) in zip(us.tolist(), q.tolist())))
+                f"{int(u)},{a!r},{b!r},{x!r},{d!r}\n" for u, (a, b, x, d) in zip(us.tolist(), q.tolist(), strict=True)))
         else:
             src = _write_generic(tmp / "o.csv", epoch + t, q)
     res = decode_paths(src, deg, tmp, opts, drop_packet=lost)

@@ -307,7 +307,7 @@ def test_sw_equals_fastsw(seed, n, kind, lf, zero, L):
 def run_encoder(signal: Signal, method: str, th: float, L: int | None):
     enc = Encoder(method, th, dim=signal.dim, kind=signal.kind, max_segment_length=L)
     pts = []
-    for t, x in zip(signal.times, signal.values):
+    for t, x in zip(signal.times, signal.values, strict=True):
         got = enc.push(float(t), x)
         assert len(got) <= 1
         pts.extend(got)

@@ -90,7 +90,7 @@ def ok_csv(tmp_path_factory) -> Path:
     p = tmp_path_factory.mktemp("csv") / "ok.csv"
     t = np.arange(60) * 0.01
     y = np.where(t < 0.3, t, 0.6 - t) + 0.001 * np.sin(37 * t)
-    p.write_text("time,a,b\n" + "".join(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), y.tolist(), (2 * y).tolist())))
+    p.write_text("time,a,b\n" + "".join(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), y.tolist(), (2 * y).tolist(), strict=True)))
     return p
 
 

@@ -182,7 +182,7 @@ def test_cli_filter_reads_the_table_and_prints_strict_json(tmp_path):
     t = np.arange(200) / 100.0
     y = np.where(t < 1.0, 0.0, 1.0) + 0.01 * np.sin(37 * t)
     p = tmp_path / "step.csv"
-    p.write_text("time,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, y)))
+    p.write_text("time,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, y, strict=True)))
     r = subprocess.run([*EXE, "filter", str(p), "--auto", "--json"], capture_output=True, text=True,
                        timeout=300, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]

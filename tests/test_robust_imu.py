@@ -75,7 +75,7 @@ def _big_rows(n: int, rng: np.random.Generator, fmt: str = "{:.9f}", start: int 
     q = rng.normal(size=(n, 4))
     q /= np.linalg.norm(q, axis=1)[:, None]
     t = 1_000_000 + 10_000 * np.arange(start, start + n)
-    return [f"{a}," + ",".join(fmt.format(v) for v in row) for a, row in zip(t.tolist(), q.tolist())]
+    return [f"{a}," + ",".join(fmt.format(v) for v in row) for a, row in zip(t.tolist(), q.tolist(), strict=True)]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -180,7 +180,7 @@ def test_duplicate_and_decreasing_times_deep_in_a_large_file(tmp_path: Path) -> 
 def _unwrap(raw: list[int], mod: int) -> list[int]:
     """Reference unwrapping of a counter with wrap-arounds (no error cases)."""
     out, off = [raw[0]], 0
-    for a, b in zip(raw, raw[1:]):
+    for a, b in zip(raw[:-1], raw[1:], strict=True):
         if b < a:
             off += mod
         out.append(b + off)

@@ -306,7 +306,7 @@ def test_ensemble_rules():
 def test_multilimb_synthetic_ensemble():
     # four limbs change at the same time (±3 samples); a fifth changes alone at 850: that cut of a
     # single limb is dropped by the ensemble
-    X = np.stack([_changing(s, n1=550 + d) for s, d in zip(range(4), (0, 2, -3, 1))] + [_changing(9, n1=850)], axis=1)
+    X = np.stack([_changing(s, n1=550 + d) for s, d in zip(range(4), (0, 2, -3, 1), strict=True)] + [_changing(9, n1=850)], axis=1)
     seg = ARMASegmenter(**SD_READING, downsample=1)
     cuts = seg.fit_predict(X)
     assert any(abs(int(c) - 850) <= 10 for c in seg.limb_cuts_[4])

@@ -34,13 +34,13 @@ def test_cost_curve_equals_brute_force_over_every_segmentation(cost):
             b = (0, *cuts, n)
             if min(np.diff(b)) < ms:
                 continue
-            c = sum(_seg_cost(z, s, e, cost, gamma) for s, e in zip(b[:-1], b[1:]))
+            c = sum(_seg_cost(z, s, e, cost, gamma) for s, e in zip(b[:-1], b[1:], strict=True))
             if c < best - 1e-12:
                 best, arg = c, cuts
         assert curve.costs[k] == pytest.approx(best, rel=1e-10, abs=1e-10)
         got = curve.cuts(k)
         b = (0, *got.tolist(), n)
-        assert sum(_seg_cost(z, s, e, cost, gamma) for s, e in zip(b[:-1], b[1:])) == pytest.approx(best, abs=1e-10)
+        assert sum(_seg_cost(z, s, e, cost, gamma) for s, e in zip(b[:-1], b[1:], strict=True)) == pytest.approx(best, abs=1e-10)
 
 
 def test_cost_curve_cuts_equal_ruptures_kernelcpd():
@@ -152,7 +152,7 @@ def test_cost_curve_over_candidates_equals_brute_force_over_their_subsets():
     curve = cost_curve(z, 5, 7, "l2", candidates=cand)
     for k in range(curve.k_max + 1):
         best = min(
-            (sum(_seg_cost(z, s, e, "l2", None) for s, e in zip((0, *c), (*c, 90))), c)
+            (sum(_seg_cost(z, s, e, "l2", None) for s, e in zip((0, *c), (*c, 90), strict=True)), c)
             for c in itertools.combinations(cand, k) if min(np.diff((0, *c, 90))) >= 5
         )
         assert curve.costs[k] == pytest.approx(best[0], abs=1e-9)

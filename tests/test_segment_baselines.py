@@ -81,7 +81,7 @@ def _draw(seed: int, d: int = 4, types: list[int] | None = None, noise: float = 
                 types.append(t)
     lengths = rng.integers(300, 801, size=len(types))
     parts, labels = [], []
-    for t, n in zip(types, lengths):
+    for t, n in zip(types, lengths, strict=True):
         mean, basis, freq, phi = bank[t]
         phase = rng.uniform(0.0, 2.0 * np.pi)
         osc = 1.5 * np.sqrt(2.0) * np.sin(2.0 * np.pi * freq * np.arange(n) + phase)

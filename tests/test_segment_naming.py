@@ -34,8 +34,8 @@ def brute_accuracy(found, ref) -> float:
     for perm in itertools.permutations(slots, len(fv)):
         if len({p for p in perm if p is not None}) != sum(p is not None for p in perm):
             continue
-        m = dict(zip(fv, perm))
-        best = max(best, sum(m[f] == r for f, r in zip(found, ref)))
+        m = dict(zip(fv, perm, strict=True))
+        best = max(best, sum(m[f] == r for f, r in zip(found, ref, strict=True)))
     return best / len(found)
 
 
@@ -48,7 +48,7 @@ def test_frame_accuracy_equals_brute_force(seed):
     assert frame_accuracy(found, ref) == pytest.approx(brute_accuracy(found, ref), abs=1e-12)
     m = best_matching(found, ref)
     assert len(set(m.values())) == len(m)  # one-to-one
-    assert sum(m.get(f) == r for f, r in zip(found, ref)) / n == pytest.approx(brute_accuracy(found, ref))
+    assert sum(m.get(f) == r for f, r in zip(found, ref, strict=True)) / n == pytest.approx(brute_accuracy(found, ref))
 
 
 def test_frame_accuracy_hand_cases():

@@ -31,7 +31,7 @@ def naive_dtw(a, b, allowed=None):
         for f in range(n):
             if allowed is not None and not allowed(e, f):
                 continue
-            d = math.sqrt(sum((float(x) - float(y)) ** 2 for x, y in zip(a[e], b[f])))
+            d = math.sqrt(sum((float(x) - float(y)) ** 2 for x, y in zip(a[e], b[f], strict=True)))
             if e == 0 and f == 0:
                 r[e][f] = d
                 continue

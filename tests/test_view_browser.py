@@ -589,7 +589,7 @@ def test_marker_page_draws_the_markers_where_they_project(open_page, marker_serv
         assert _vertical_order(page, "p0", markers.positions[frame, :, 2]) > 0.8
         if first is None:
             first = pts
-    moved = [np.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(first, pts) if a is not None and b is not None]
+    moved = [np.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(first, pts, strict=True) if a is not None and b is not None]
     assert max(moved) > 3
 
 

@@ -36,7 +36,7 @@ def test_column_options(tmp_path):
     p = tmp_path / "odd.csv"
     rows = np.genfromtxt(PELVIS, delimiter=",", skip_header=1)[:20]
     t_ms = (rows[:, 0] - rows[0, 0]) / 1000.0              # µs -> ms, under a name that says nothing
-    lines = ["stamp,qa,qb,qc,qd"] + [",".join(repr(float(v)) for v in (t, *q)) for t, q in zip(t_ms, rows[:, 1:5])]
+    lines = ["stamp,qa,qb,qc,qd"] + [",".join(repr(float(v)) for v in (t, *q)) for t, q in zip(t_ms, rows[:, 1:5], strict=True)]
     p.write_text("\n".join(lines) + "\n")
     with pytest.raises(MocapFormatError):
         build_scene([p])
@@ -71,6 +71,6 @@ def test_an_unrelated_time_wxyz_file_is_not_paired(tmp_path):
     rows = np.genfromtxt(PELVIS, delimiter=",", skip_header=1)[:30]
     t = (rows[:, 0] - rows[0, 0]) / 1e6 + 0.0001        # other times: another recording
     other.write_text("time,w,x,y,z\n" + "\n".join(",".join(repr(float(v)) for v in (ti, *q))
-                                                  for ti, q in zip(t, rows[:, 1:5])) + "\n")
+                                                  for ti, q in zip(t, rows[:, 1:5], strict=True)) + "\n")
     scene = build_scene([PELVIS, other])
     assert len(scene["panels"]) == 2

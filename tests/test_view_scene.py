@@ -272,7 +272,7 @@ def test_knots_are_the_piece_starts_at_the_filtered_values(tmp_path):
     (kn,) = panel["knots"]
     m = mk.labels.index("unnamed_6")
     assert kn["marker"] == m and kn["times"] == pytest.approx(expect)
-    for t, (x, y, z) in zip(kn["times"], kn["positions"]):
+    for t, (x, y, z) in zip(kn["times"], kn["positions"], strict=True):
         row = table[np.argmin(np.abs(table[:, 0] - t))]
         assert abs(row[0] - t) < 1e-9 and y is None
         assert (x, z) == pytest.approx((row[1], row[2]), abs=1e-6)

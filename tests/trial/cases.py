@@ -295,7 +295,7 @@ def gen_sto_names(seeds, base, i, rng) -> Case:
     case = from_seed(seed, base, f"paths-{i:05d}", "paths", b"", ["compress", "{in}", "-t", "0.001", "-o",
                                                                    "{out}/sensors"], None, {})
     names = [rng.choice(STO_NAMES).replace("{abs}", str(case.dir)) for _ in range(rng.randint(1, 3))]
-    for j, name in zip(rng.sample(range(1, len(cols)), len(names)), names):
+    for j, name in zip(rng.sample(range(1, len(cols)), len(names)), names, strict=True):
         cols[j] = name
     lines[k] = "\t".join(cols)
     case.inputs[0].write_text("\n".join(lines))

@@ -332,7 +332,7 @@ def verify_reference(original: str, compressed: str, options: dict | None = None
         return {"status": "skip", "why": "points not increasing"}
     runs = [0, *(np.flatnonzero(a[1:, col["gap_before"]] != 0) + 1 if ticks else []), len(place)]
     err = np.full(len(at), np.nan)
-    for lo, hi in zip(runs[:-1], runs[1:]):
+    for lo, hi in zip(runs[:-1], runs[1:], strict=True):
         inside = (at >= place[lo]) & (at <= place[hi - 1])
         if not inside.any():
             continue

@@ -266,7 +266,7 @@ def warm_up(argvs: list[list[str]], stdins: list | None = None) -> None:
             if fin != null:
                 os.close(fin)
     finally:
-        for fd, s in zip((0, 1, 2), saved):
+        for fd, s in zip((0, 1, 2), saved, strict=True):
             os.dup2(s, fd)
             os.close(s)
         os.close(null)
