@@ -3,6 +3,7 @@ hypothesis profiles, the markers given by what a test needs, and the check for l
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import pytest
@@ -120,10 +121,8 @@ def _repo_files() -> dict[str, int]:
             if f.endswith((".pyc", ".nbi", ".nbc")):
                 continue
             p = os.path.join(d, f)
-            try:
+            with contextlib.suppress(FileNotFoundError):
                 out[p] = os.lstat(p).st_mtime_ns if p.startswith(str(TESTS_DIR / "data")) else 0
-            except FileNotFoundError:
-                pass
     return out
 
 

@@ -119,7 +119,7 @@ def build(asf_path, amc_path, stride: int = 1, first: int = 0, count: int | None
     G = [None] * len(SEGMENTS)
     X = np.zeros((N, len(SEGMENTS), 3))
     rest = np.zeros((len(SEGMENTS), 3))
-    for k, (lab, par, jl, bones, _) in enumerate(SEGMENTS):
+    for k, (_lab, par, jl, bones, _) in enumerate(SEGMENTS):
         local = Rotation.identity(N)
         for b in bones:
             local = local * to_scipy(m.rotations[frames, sk.index(b)])
@@ -172,7 +172,7 @@ def write(path, data: dict, rate: float | None = None, note: str = "") -> None:
     out += [f'\t\t\t<sensor label="{s}"/>' for s in SENSORS]
     out.append("\t\t</sensors>")
     out.append("\t\t<joints>")
-    for k, (lab, par, jl, _, _) in enumerate(SEGMENTS):
+    for _k, (lab, par, jl, _, _) in enumerate(SEGMENTS):
         if par is not None:
             out += [f'\t\t\t<joint label="{jl}">', f"\t\t\t\t<connector1>{par}/{jl}</connector1>",
                     f"\t\t\t\t<connector2>{lab}/{jl}</connector2>", "\t\t\t</joint>"]

@@ -52,28 +52,27 @@ def scheduler(tmp_path):
     port = _free_port()
     addr = f"tcp://127.0.0.1:{port}"
     env = {**os.environ, "DASK_TEMPORARY_DIRECTORY": str(tmp_path / "dask-tmp")}
-    logs = open(tmp_path / "dask.log", "wb")
-    procs = [subprocess.Popen([str(BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port),
-                               "--no-dashboard"], stdout=logs, stderr=logs, env=env)]
-    try:
-        for i in range(2):
-            procs.append(subprocess.Popen([str(BIN / "dask"), "worker", addr, "--nthreads", "1", "--nworkers", "1",
-                                           "--host", "127.0.0.1", "--no-dashboard", "--local-directory",
-                                           str(tmp_path / f"worker{i}")], stdout=logs, stderr=logs, env=env))
-        t0 = time.monotonic()
-        while True:  # the scheduler listens, then both workers register
-            try:
-                with Client(addr, timeout="5s") as c:
-                    c.wait_for_workers(2, timeout=120)
-                break
-            except OSError:
-                if time.monotonic() - t0 > 120 or procs[0].poll() is not None:
-                    raise
-                time.sleep(0.5)
-        yield addr
-    finally:
-        _terminate(procs[::-1])
-        logs.close()
+    with open(tmp_path / "dask.log", "wb") as logs:
+        procs = [subprocess.Popen([str(BIN / "dask"), "scheduler", "--host", "127.0.0.1", "--port", str(port),
+                                   "--no-dashboard"], stdout=logs, stderr=logs, env=env)]
+        try:
+            for i in range(2):
+                procs.append(subprocess.Popen([str(BIN / "dask"), "worker", addr, "--nthreads", "1", "--nworkers", "1",
+                                               "--host", "127.0.0.1", "--no-dashboard", "--local-directory",
+                                               str(tmp_path / f"worker{i}")], stdout=logs, stderr=logs, env=env))
+            t0 = time.monotonic()
+            while True:  # the scheduler listens, then both workers register
+                try:
+                    with Client(addr, timeout="5s") as c:
+                        c.wait_for_workers(2, timeout=120)
+                    break
+                except OSError:
+                    if time.monotonic() - t0 > 120 or procs[0].poll() is not None:
+                        raise
+                    time.sleep(0.5)
+            yield addr
+        finally:
+            _terminate(procs[::-1])
 
 
 def _batch(*args) -> int:

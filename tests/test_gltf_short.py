@@ -207,7 +207,7 @@ def test_short_at_loose_bounds_and_float_fallback_at_tight_ones(tests_data, tmp_
 
 
 def test_storage_error_bound_covers_the_measured_storage_error(tests_data, tmp_path):
-    for name, path, asf, ucm in clips(tests_data):
+    for name, path, asf, _ucm in clips(tests_data):
         m = load_motion(path, asf=asf)
         full = every_frame(m)
         for fmt in ("short", "float"):

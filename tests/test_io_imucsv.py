@@ -1166,7 +1166,7 @@ def test_stream_memory_is_constant(header: str, row: str) -> None:
     try:
         count = 0
         last = None
-        for last in iter_samples(lines(), "<gen>", rate):
+        for last in iter_samples(lines(), "<gen>", rate):  # noqa: B007 - the last sample is checked below
             count += 1
         _, peak = tracemalloc.get_traced_memory()
     finally:

@@ -70,7 +70,7 @@ def test_cli_prints_the_job_record(files, job, key, options, args, part):
     """``mocapkit JOB --json FILE`` prints exactly the job function's record (or its documented part)."""
     rec = _roundtrip(run_job(job, files[key], _resolve(options, files)))
     assert rec["job"] == job and rec["file"] == str(files[key])
-    cli_args = [files[a] if a in files else a for a in args]
+    cli_args = [files.get(a, a) for a in args]
     extra = ["--stats-only"] if job == "compress" and key == "imu" else []
     printed = _cli_json(job, files[key], *cli_args, "--json", *extra)
     assert printed == (rec if part is None else rec[part])

@@ -174,10 +174,8 @@ def _float32_report(sigs: dict[str, Signal]) -> dict:
             if m == "swing" and i == a + 1:
                 continue  # pragma: no cover - a one-sample segment always joins
             value, scale = _criterion(m, s.times, X, a, av, i, th)
-            if m == "anglesw":
-                gap = abs(value - th)      # radians
-            else:
-                gap = abs(value - th) / scale  # in units of the rounding scale
+            # radians for anglesw, else in units of the rounding scale
+            gap = abs(value - th) if m == "anglesw" else abs(value - th) / scale
             diffs[m].append((name, th_user, gap))
     return {"cases": cases, "diffs": diffs}
 

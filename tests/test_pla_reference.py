@@ -667,7 +667,7 @@ def test_sw_fastsw_float_tie():
     threshold between them, and check the outputs then differ only by that one cut moving by one
     sample (and agree again once the threshold covers both values)."""
     rng = np.random.default_rng(20240611)
-    for attempt in range(400):
+    for _attempt in range(400):
         t = np.sort(rng.uniform(0.0, 1.0, 4))
         t[1:] += np.arange(1, 4) * 0.05
         x = rng.normal(size=(4, 3))

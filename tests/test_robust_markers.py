@@ -648,9 +648,7 @@ def _mutate(text: str, ops) -> str:
     for kind, where, tok in ops:
         if kind == "number":  # replace the number around a position by a token
             i = int(where * len(text))
-            m = None
-            for m in re.finditer(r"-?\d+(?:\.\d+)?(?:[eE][+-]?\d+)?", text[max(0, i - 40): i + 40]):
-                break
+            m = next(re.finditer(r"-?\d+(?:\.\d+)?(?:[eE][+-]?\d+)?", text[max(0, i - 40): i + 40]), None)
             if m is not None:
                 a, b = max(0, i - 40) + m.start(), max(0, i - 40) + m.end()
                 text = text[:a] + tok + text[b:]

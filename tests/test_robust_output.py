@@ -146,10 +146,10 @@ def test_failure_inside_the_block_leaves_the_old_file_and_no_temporary(tmp_path,
         raise exc
     assert p.read_text() == "old\n"
     assert listing(tmp_path) == ["a.csv"]
-    with pytest.raises(RuntimeError):  # a new file is not created either
-        with atomic_writer(tmp_path / "b.csv") as fh:
-            fh.write("x")
-            raise RuntimeError
+    # a new file is not created either
+    with pytest.raises(RuntimeError), atomic_writer(tmp_path / "b.csv") as fh:
+        fh.write("x")
+        raise RuntimeError
     assert listing(tmp_path) == ["a.csv"]
 
 

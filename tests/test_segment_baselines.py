@@ -421,10 +421,7 @@ def test_mlp_bad_training_data_raises():
 def test_missing_optional_package_is_explained(module, monkeypatch):
     monkeypatch.setitem(sys.modules, module, None)  # makes ``import module`` fail
     x = np.random.default_rng(0).normal(size=(300, 2))
-    if module.startswith("claspy"):
-        segs = [ClaSPSegmenter()]
-    else:
-        segs = [KernelCPDSegmenter(), PELTSegmenter()]
+    segs = [ClaSPSegmenter()] if module.startswith("claspy") else [KernelCPDSegmenter(), PELTSegmenter()]
     for seg in segs:
         with pytest.raises(InvalidParameterError, match=r"pip install 'mocapkit\[segment\]'"):
             seg.fit(x)

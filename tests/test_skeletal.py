@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import subprocess
@@ -183,10 +184,8 @@ def test_fuzz_bvh_only_format_errors(tests_data, data):
         s = lines[i]
         k = data.draw(st.integers(0, max(len(s) - 1, 0)))
         lines[i] = s[:k] + data.draw(st.characters(blacklist_categories=("Cs",))) + s[k + 1:]
-    try:
+    with contextlib.suppress(MocapFormatError):
         parse_bvh("\n".join(lines), "fuzz.bvh")
-    except MocapFormatError:
-        pass
 
 
 @pytest.mark.parametrize("cm", [0.5, 2.0])

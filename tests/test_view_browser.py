@@ -32,7 +32,7 @@ CHROMIUM = Path("/usr/bin/chromium")
 if not CHROMIUM.is_file():  # pragma: no cover - depends on the machine
     pytest.skip(f"{CHROMIUM} is missing (apt-get install chromium)", allow_module_level=True)
 
-import mocapkit
+import mocapkit  # noqa: E402 - after the module-level skips
 
 DATA = Path(__file__).parent / "data"
 BVH = DATA / "bvh" / "walk-meredith-60.bvh"

@@ -27,6 +27,7 @@ folder the command was given) is ``written_outside``.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import random
 import shutil
@@ -679,7 +680,8 @@ def evaluate(case: Case, mode: str = "fork") -> dict:
     drain = None
     if case.post == "fifo":  # a reader draining the FIFO while the command writes (a process: no threads here)
         sink = case.dir / "fifo-received"
-        drain = subprocess.Popen(["cat", str(case.outputs[0])], stdout=open(sink, "wb"), stdin=subprocess.DEVNULL)
+        with open(sink, "wb") as received:  # the child holds its own descriptor
+            drain = subprocess.Popen(["cat", str(case.outputs[0])], stdout=received, stdin=subprocess.DEVNULL)
     if case.post == "endless":
         helper = _start_endless_writer(case.stdin or Path(case.argv[1]))
     cwd = case.cwd or case.dir / "cwd"
@@ -691,10 +693,9 @@ def evaluate(case: Case, mode: str = "fork") -> dict:
     finally:
         got = b""
         if drain is not None:
-            try:  # a writer that opens and closes: the reader sees EOF even if the command never opened it
+            # a writer that opens and closes: the reader sees EOF even if the command never opened it
+            with contextlib.suppress(OSError):
                 os.close(os.open(case.outputs[0], os.O_WRONLY | os.O_NONBLOCK))
-            except OSError:
-                pass
             try:
                 drain.wait(timeout=5)  # EOF once every writer closed
             except subprocess.TimeoutExpired:  # nobody opened the FIFO for writing

@@ -14,6 +14,7 @@ The parent never runs numba code and starts no thread, so a fork is safe.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
@@ -127,10 +128,8 @@ def _fork(target, argv: list[str], stdin: str | Path | None, cwd: str | Path | N
                 _fresh_consoles()
                 code = target(argv)
             except BaseException:
-                try:
+                with contextlib.suppress(BaseException):
                     traceback.print_exc()
-                except BaseException:
-                    pass
             finally:
                 try:
                     sys.stdout.flush()
@@ -156,10 +155,8 @@ def _fork(target, argv: list[str], stdin: str | Path | None, cwd: str | Path | N
             if now >= deadline and not killed_by_us:
                 timed_out = True
                 killed_by_us = True
-                try:
+                with contextlib.suppress(ProcessLookupError):
                     os.killpg(pid, signal.SIGKILL)
-                except ProcessLookupError:
-                    pass
             time.sleep(delay)
             delay = min(delay * 1.5, 0.02)
         seconds = time.monotonic() - t0
@@ -188,7 +185,7 @@ def run_cli(argv: list[str], *, stdin: str | Path | None = None, cwd: str | Path
 
 def _subprocess(argv, stdin, cwd, timeout, mem, env, kill_after) -> Run:
     full_env = dict(os.environ, COLUMNS="100000", **(env or {}))
-    fin = open(stdin, "rb") if stdin is not None else subprocess.DEVNULL
+    fin = open(stdin, "rb") if stdin is not None else subprocess.DEVNULL  # noqa: SIM115 - optional; closed below
     t0 = time.monotonic()
     try:
         proc = subprocess.Popen([str(MOCAPKIT), *argv], stdin=fin, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
@@ -227,10 +224,8 @@ def preload() -> None:
     for m in pkgutil.walk_packages(mocapkit.__path__, "mocapkit."):
         if m.name.endswith("__main__"):
             continue
-        try:
+        with contextlib.suppress(Exception):  # a module broken mid-edit: the cases will show it
             importlib.import_module(m.name)
-        except Exception:  # a module broken mid-edit: the cases will show it
-            pass
 
 
 def warm_up(argvs: list[list[str]], stdins: list | None = None) -> None:
@@ -254,15 +249,11 @@ def warm_up(argvs: list[list[str]], stdins: list | None = None) -> None:
             sys.stderr = io.TextIOWrapper(io.BufferedWriter(io.FileIO(2, "w", closefd=False)), write_through=True)
             sys.argv = ["mocapkit", *[str(a) for a in argv]]
             _fresh_consoles()
-            try:
+            with contextlib.suppress(BaseException):
                 cli.main()
-            except BaseException:
-                pass
             for f in (sys.stdout, sys.stderr, saved_std[1], saved_std[2]):
-                try:
+                with contextlib.suppress(OSError, ValueError):
                     f.flush()  # while fds 1 and 2 still point to /dev/null
-                except (OSError, ValueError):
-                    pass
             if fin != null:
                 os.close(fin)
     finally:
