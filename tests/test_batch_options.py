@@ -168,7 +168,8 @@ def test_mixed_tree_with_manifest_and_sidecar(catalog_url, tmp_path, tests_data)
     # the runs show the options each file ran with, and join their recording
     runs = {Path(p).name: (json.loads(o), rate) for p, o, rate in query(
         catalog_url, "SELECT r.path, r.options_json, rec.rate_hz FROM runs r JOIN recordings rec "
-                     "ON rec.path = r.path AND rec.content_hash = r.content_hash AND rec.reading_hash = r.reading_hash")}
+                     "ON rec.path = r.path AND rec.content_hash = r.content_hash "
+                     "AND rec.reading_hash = r.reading_hash")}
     assert {n: (o["rate"], rate) for n, (o, rate) in runs.items()} == {
         n: (reading.get("rate"), rate) for n, (rate, reading) in expected.items()}
     code, shown, _ = run("catalog", "query", "SELECT path, rate_hz, reading_json FROM recordings ORDER BY path",
@@ -249,7 +250,8 @@ def test_an_output_linked_onto_another_input_of_the_batch_is_refused(tmp_path, t
     assert code == 1, stdout + err
     rows = rows_by_name(out)
     assert rows["other.trc"]["status"] == "ok" and rows["third.trc"]["status"] == "ok"
-    assert rows["walk.trc"]["error"] == (f"{out / 'a' / 'walk.filtered.csv'}: is (a link to) {tree / 'b' / 'other.trc'}, "
+    assert rows["walk.trc"]["error"] == (f"{out / 'a' / 'walk.filtered.csv'}: "
+                                         f"is (a link to) {tree / 'b' / 'other.trc'}, "
                                          "an input of this batch; remove it from the output folder")
     assert (tree / "b" / "other.trc").read_bytes() == before
 

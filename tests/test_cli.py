@@ -35,7 +35,8 @@ def pelvis(tests_data) -> Path:
 def test_help_lists_every_command():
     r = run("--help")
     assert r.returncode == 0
-    for cmd in ("compress", "decompress", "stream", "sweep", "bench", "demo", "info", "convert", "filter", "filter-eval"):
+    for cmd in ("compress", "decompress", "stream", "sweep", "bench", "demo", "info", "convert", "filter",
+                "filter-eval"):
         assert cmd in r.stdout
 
 

@@ -305,7 +305,8 @@ def test_joint_roles_ignore_a_rig_namespace():
     from mocapkit.segment.features import ROLES, resolve_joint_map
 
     names = ["mixamorig:Hips", "mixamorig:Spine", "mixamorig:Neck", "mixamorig:Head",
-             *[f"mixamorig:{s}{p}" for s in ("Left", "Right") for p in ("UpLeg", "Leg", "Foot", "Arm", "ForeArm", "Hand")]]
+             *[f"mixamorig:{s}{p}" for s in ("Left", "Right")
+               for p in ("UpLeg", "Leg", "Foot", "Arm", "ForeArm", "Hand")]]
     jm = resolve_joint_map(names)
     assert set(jm) == set(ROLES) and all(v.startswith("mixamorig:") for v in jm.values())
     assert jm["root"] == "mixamorig:Hips"

@@ -103,7 +103,8 @@ def parse_payload(payload: bytes, n: int, T: int) -> list[tuple[int, int, np.nda
                 elif i == 1 or order == 1:
                     p = q[i - 1, c]
                 else:
-                    p = q[i - 1, c] + math.floor((q[i - 1, c] - q[i - 2, c]) * ((f[i] - f[i - 1]) / (f[i - 1] - f[i - 2])) + 0.5)
+                    p = q[i - 1, c] + math.floor((q[i - 1, c] - q[i - 2, c])
+                                                 * ((f[i] - f[i - 1]) / (f[i - 1] - f[i - 2])) + 0.5)
                 q[i, c] = p + r
         out.append((level, order, f, q))
     assert pos == len(payload)
@@ -183,7 +184,8 @@ def test_exp_inverts_log_and_is_one_lipschitz():
 
 def test_exp_map_series_match_libm_sin_and_cos():
     """exp_into evaluates sin/cos of the half angle by series up to π: within 4e-16 of libm's."""
-    h = np.concatenate([np.linspace(0, math.pi, 100_001), np.geomspace(1e-300, 1, 500), [0.8, np.nextafter(0.8, 0), 4.0, 50.0]])
+    h = np.concatenate([np.linspace(0, math.pi, 100_001), np.geomspace(1e-300, 1, 500),
+                        [0.8, np.nextafter(0.8, 0), 4.0, 50.0]])
     v = np.zeros((h.size, 3))
     v[:, 1] = 2 * h
     q = exp_map(v)
@@ -230,7 +232,8 @@ def _random_tracks(rng, n, T):
         K = int(rng.integers(2, n + 1)) if n > 1 else 1
         inner = np.sort(rng.choice(np.arange(1, n - 1), size=K - 2, replace=False)) if K > 2 else np.zeros(0, int)
         f = np.concatenate([[0], inner, [n - 1]]) if n > 1 else np.array([0])
-        q = rng.integers(-(2**40), 2**40, size=(len(f), 3)) if rng.random() < 0.2 else rng.integers(-900, 900, size=(len(f), 3))
+        q = (rng.integers(-(2**40), 2**40, size=(len(f), 3)) if rng.random() < 0.2
+             else rng.integers(-900, 900, size=(len(f), 3)))
         tracks.append((int(rng.integers(0, 20)), int(rng.integers(1, 3)), f.astype(np.int64), q.astype(np.int64)))
     return tracks
 
@@ -334,7 +337,8 @@ def test_lossless_parts_round_trip_exactly(amc):
             ref = _interp(f, q, clip.steps[t, lv], e.frames)
             np.testing.assert_allclose(vals[:, 3 * t:3 * t + 3], ref, rtol=1e-12, atol=1e-15)
     assert sum(len(p[2]) for i, e in enumerate(clip.file.blocks)
-               for p in parse_payload(entropy_decode(clip.file.block(i), e.raw, "x"), e.frames, T)) == enc.report["keyframes"]
+               for p in parse_payload(entropy_decode(clip.file.block(i), e.raw, "x"), e.frames, T)
+               ) == enc.report["keyframes"]
 
 
 def test_pose_at_decodes_one_block_and_matches_the_full_decode(amc, monkeypatch):
@@ -584,5 +588,6 @@ def test_batch_writes_clips_within_their_bound(tests_data, tmp_path):
         m = load_motion(src / f"{name}.bvh")
         _, se = naive_errors(m, load_motion(clip), 3.0)
         assert se.max() <= 0.2 * (1 + 1e-9)
-    r = run("batch", "compress", src, "--out", tmp_path / "o2", "--max-position-error", "0.2", "--error-metric", "shell")
+    r = run("batch", "compress", src, "--out", tmp_path / "o2", "--max-position-error", "0.2",
+            "--error-metric", "shell")
     assert r.returncode == 2 and "--skeletal-format mkc" in r.stderr and not (tmp_path / "o2").exists()

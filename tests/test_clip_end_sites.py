@@ -129,7 +129,8 @@ def _chain_motion(lengths, tips, n, seed) -> Motion:
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(lengths=st.lists(st.floats(0.5, 40.0), min_size=1, max_size=5), tips=st.tuples(st.floats(0.0, 60.0), st.floats(0.1, 60.0)),
+@given(lengths=st.lists(st.floats(0.5, 40.0), min_size=1, max_size=5),
+       tips=st.tuples(st.floats(0.0, 60.0), st.floats(0.1, 60.0)),
        n=st.integers(2, 90), seed=st.integers(0, 2**31 - 1), bound=st.floats(0.005, 2.0),
        block=st.integers(2, 40))
 def test_end_sites_within_the_bound_on_random_chains(lengths, tips, n, seed, bound, block):
@@ -191,4 +192,5 @@ def test_gltf_output_bounds_end_sites_by_default(tests_data, tmp_path, name, asf
     unit = rec["unit_cm"]
     err = end_error(m, back) * unit
     assert err <= 0.1, (name, err)
-    assert max(err, joint_error(m, back) * unit) == pytest.approx(rec["readback_max_position_error_cm"], rel=1e-6, abs=1e-9)
+    assert max(err, joint_error(m, back) * unit) == pytest.approx(rec["readback_max_position_error_cm"],
+                                                                  rel=1e-6, abs=1e-9)

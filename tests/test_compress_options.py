@@ -110,7 +110,8 @@ def test_an_asf_is_the_same_path_whoever_gives_it(tests_data):
 
 def test_packet_options_from_the_command(monkeypatch, imu, tmp_path):
     out = tmp_path / "p.mkp"
-    cli = _cli_options(monkeypatch, [imu, "--max-angle", "2", "--packet-bits", "10", "--rate", "60", "-o", out, "--json"])
+    cli = _cli_options(monkeypatch, [imu, "--max-angle", "2", "--packet-bits", "10", "--rate", "60", "-o", out,
+                                     "--json"])
     assert cli == PacketCompressOptions(max_angle=2.0, packet_bits=10, packet_bytes=20, rate=60.0)
     assert cli == compress_options("packets", out, max_angle=2.0, packet_bits=10, rate=60.0)
 
@@ -152,9 +153,12 @@ def test_invalid_combinations_are_refused_as_before(kind, given, output, message
 
 
 @pytest.mark.parametrize(("argv", "message"), [
-    (["{bvh}", "--max-angle", "2", "-o", "{tmp}/c.mkc"], "{tmp}/c.mkc: a .mkc clip is bounded by --max-position-error CM only"),
-    (["{bvh}", "--max-angle", "2", "--json"], "for skeletal input use --max-position-error CM (or --threshold / --target-icr)"),
-    (["{imu}", "-t", "1", "--unit-cm", "1", "--json"], "--max-position-error, --asf and --unit-cm apply to BVH/AMC input"),
+    (["{bvh}", "--max-angle", "2", "-o", "{tmp}/c.mkc"],
+     "{tmp}/c.mkc: a .mkc clip is bounded by --max-position-error CM only"),
+    (["{bvh}", "--max-angle", "2", "--json"],
+     "for skeletal input use --max-position-error CM (or --threshold / --target-icr)"),
+    (["{imu}", "-t", "1", "--unit-cm", "1", "--json"],
+     "--max-position-error, --asf and --unit-cm apply to BVH/AMC input"),
     (["{imu}", "-t", "1", "-o", "{tmp}/p.mkp"], "{tmp}/p.mkp: a .mkp packet stream is bounded by --max-angle DEG only"),
     (["{imu}", "-t", "1", "--packet-bits", "8", "--json"],
      "--packet-bits and --packet-bytes apply to a packet stream (-o OUT.mkp)"),

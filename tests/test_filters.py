@@ -87,7 +87,8 @@ def test_iterative_loss_never_increases(seed):
     rng = np.random.default_rng(100 + seed)
     t, y, _, _ = synthetic_signal(n=240, noise=0.1, seed=seed)
     y = y + rng.normal(0, 0.05, y.shape)
-    _, hist = fit_iterative(t, y, int(rng.integers(0, 3)), float(rng.uniform(0.01, 0.5)), init_chunk=int(rng.integers(3, 40)))
+    _, hist = fit_iterative(t, y, int(rng.integers(0, 3)), float(rng.uniform(0.01, 0.5)),
+                            init_chunk=int(rng.integers(3, 40)))
     assert len(hist) >= 4
     assert all(b <= a + 1e-12 for a, b in zip(hist[:-1], hist[1:], strict=True)), hist
 
@@ -102,7 +103,8 @@ def test_chunk_fit_equals_numpy_polynomial():
             ref = np.polynomial.Polynomial.fit(t[5:33] - t[5], Y[5:33, d], order).convert().coef
             assert np.allclose(p.coeffs[: len(ref), d], ref, rtol=1e-8, atol=1e-10)
         # shared-knot vector cost = sum of the per-component costs
-        assert chunk_ssr(t, Y, 5, 33, order) == pytest.approx(sum(chunk_ssr(t, Y[:, [d]], 5, 33, order) for d in range(3)), rel=1e-12)
+        assert chunk_ssr(t, Y, 5, 33, order) == pytest.approx(
+            sum(chunk_ssr(t, Y[:, [d]], 5, 33, order) for d in range(3)), rel=1e-12)
         res = sum(np.polynomial.Polynomial.fit(t[5:33], Y[5:33, d], order, full=True)[1][0].sum() for d in range(3))
         assert chunk_ssr(t, Y, 5, 33, order) == pytest.approx(float(res), rel=1e-9)
 
@@ -312,7 +314,8 @@ def test_cli_filter_auto_on_juggling_take(shared_data):
     acc = []
     for b in moving:
         # flights as in evaluation.filtering.flights: concave pieces of at least 0.2 s
-        acc += [2 * p["coeffs"][2] * 1e-3 for p in recs[f"{b}:z"]["pieces"] if p["coeffs"][2] < 0 and p["t1"] - p["t0"] >= 0.2]
+        acc += [2 * p["coeffs"][2] * 1e-3 for p in recs[f"{b}:z"]["pieces"]
+                if p["coeffs"][2] < 0 and p["t1"] - p["t0"] >= 0.2]
         assert recs[f"{b}:z"]["knot_cost"] > 0
     res = fit(m.times, m.positions[:, m.labels.index("unnamed_6"), 2], 2)  # the library gives the same
     assert res.n_knots == recs["unnamed_6:z"]["n_knots"] and len(flights(res)) >= 10

@@ -296,7 +296,8 @@ MALFORMED = {
                               "differs from its values"),
     "odd byteOffset": (lambda d: _rot_output(d).update(byteOffset=1), "not a multiple of 2"),
     "sparse": (lambda d: _rot_output(d).update(sparse={"count": 1}), "sparse"),
-    "VEC3 rotation": (lambda d: [_rot_output(d).update(type="VEC3"), _rot_output(d).pop("min"), _rot_output(d).pop("max")],
+    "VEC3 rotation": (lambda d: [_rot_output(d).update(type="VEC3"), _rot_output(d).pop("min"),
+                                 _rot_output(d).pop("max")],
                       "rotation keys must be VEC4"),
 }
 

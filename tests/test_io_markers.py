@@ -712,7 +712,8 @@ def test_c3d_truncated_data_reads_the_complete_frames_like_ezc3d(tmp_path, cut):
     np.testing.assert_array_equal(m.analog["values"], ref["data"]["analogs"][0].T)
     np.testing.assert_array_equal(m.analog["values"], exp["analog"][:16])
     assert len(m.meta["warnings"]) == 1
-    assert "the data section is truncated" in m.meta["warnings"][0] and "holds 4 complete frames" in m.meta["warnings"][0]
+    assert ("the data section is truncated" in m.meta["warnings"][0]
+            and "holds 4 complete frames" in m.meta["warnings"][0])
 
 
 @pytest.mark.parametrize("frames", [4, 9])

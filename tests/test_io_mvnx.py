@@ -227,9 +227,11 @@ def _cases():
     yield "nan", t, orientation_of(t, f3), "NaN or infinite"
     z = text[:j] + "0 0 0 0 " + text[j:].split(" ", 4)[4]
     yield "zero quaternion", z, _line_of(z, f3), "zero orientation quaternion"
-    t = text.replace("<connector1>RightUpperArm/jRightElbow</connector1>", "<connector1>RightArm/jRightElbow</connector1>")
+    t = text.replace("<connector1>RightUpperArm/jRightElbow</connector1>",
+                     "<connector1>RightArm/jRightElbow</connector1>")
     yield "unknown segment", t, _line_of(t, "RightArm/jRightElbow"), "no segment 'RightArm'"
-    t = text.replace("<connector2>RightForeArm/jRightElbow</connector2>", "<connector2>RightForeArm/jElbow</connector2>")
+    t = text.replace("<connector2>RightForeArm/jRightElbow</connector2>",
+                     "<connector2>RightForeArm/jElbow</connector2>")
     yield "unknown point", t, _line_of(t, "RightForeArm/jElbow"), "has no point 'jElbow'"
     t = text.replace("<connector1>L5/jL4L3</connector1>", "<connector1>L5 jL4L3</connector1>")
     yield "connector syntax", t, _line_of(t, "L5 jL4L3"), "is not 'Segment/point'"
@@ -248,11 +250,13 @@ def _cases():
     yield "short pos_b", t, _line_of(t, "<pos_b>0 0</pos_b>"), "expected 3 numbers"
     # a <segment> holding <points> outside <segments>: before any segment (was an IndexError) and
     # after them (its points were filed under the last segment)
-    stray = '<segment label="Stray">\n<points>\n<point label="pStray">\n<pos_b>0 0 0</pos_b>\n</point>\n</points>\n</segment>\n'
+    stray = ('<segment label="Stray">\n<points>\n<point label="pStray">\n<pos_b>0 0 0</pos_b>\n</point>\n'
+             '</points>\n</segment>\n')
     for where, anchor in (("before", "<segments>"), ("after", "</segments>")):
         i = text.index(anchor) + (len(anchor) + 1 if where == "after" else 0)
         t = text[:i] + stray + text[i:]
-        yield f"segment outside segments {where}", t, _line_of(t, '<point label="pStray">'), "outside mvnx/subject/segments"
+        yield (f"segment outside segments {where}", t, _line_of(t, '<point label="pStray">'),
+               "outside mvnx/subject/segments")
     i = text.index("<orientation>", text.index(f3))
     t = text[:i] + '<frames><frame type="normal"/></frames>' + text[i:]
     yield "frames inside a frame", t, _line_of(t, '<frame type="normal"/>'), "outside mvnx/subject/frames"
@@ -406,7 +410,8 @@ def test_fuzz_element_nesting_only_format_errors_escape(tmp_path: Path, ops) -> 
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.lists(st.tuples(st.integers(0, len(_BYTES) - 1), st.integers(0, 255), st.integers(0, 2)), min_size=1, max_size=4))
+@given(st.lists(st.tuples(st.integers(0, len(_BYTES) - 1), st.integers(0, 255), st.integers(0, 2)),
+                min_size=1, max_size=4))
 def test_fuzz_only_format_errors_escape(tmp_path: Path, edits) -> None:
     data = bytearray(_BYTES)
     for pos, byte, op in edits:

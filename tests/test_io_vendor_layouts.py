@@ -158,7 +158,8 @@ def test_legacy_xio_folder_compresses_without_rate(tmp_path):
 def test_legacy_xio_bad_registers(tmp_path, reg_rows, words):
     d = tmp_path / "session"
     shutil.copytree(XIO_LEGACY, d)
-    (d / "00000_Registers.csv").write_text("Packet Number,Address,Value,Float Value,Name\n" + "\n".join(reg_rows) + "\n")
+    (d / "00000_Registers.csv").write_text("Packet Number,Address,Value,Float Value,Name\n"
+                                           + "\n".join(reg_rows) + "\n")
     with pytest.raises(MocapFormatError, match=words) as ei:
         read_sensor_folder(d)
     assert "00000_Registers.csv" in str(ei.value)

@@ -236,7 +236,8 @@ def _smooth_path(rng, n: int, speed: float) -> np.ndarray:
 
 def _write_generic(path: Path, t, q) -> Path:
     path.write_text("time,w,x,y,z\n" + "".join(f"{ti!r},{a!r},{b!r},{c!r},{d!r}\n"
-                                               for ti, (a, b, c, d) in zip(np.asarray(t).tolist(), q.tolist(), strict=True)))
+                                               for ti, (a, b, c, d)
+                                               in zip(np.asarray(t).tolist(), q.tolist(), strict=True)))
     return path
 
 
@@ -379,7 +380,8 @@ def test_a_clock_that_cannot_place_the_points_is_a_format_error():
 
     sig = read_imu_csv(DATA / "xio" / "pelvis" / "Quaternion.csv")
     pk = packetise(sig.values[:200], 2.0, bits=10)
-    for sensor, message in [(Sensor("s", 1e-6, 1e12), "tick 199 at rate 1e-06 Hz from 1000000000000.0 s is at 1000199000000.0 s, beyond ±1e+12 s"),
+    for sensor, message in [(Sensor("s", 1e-6, 1e12), "tick 199 at rate 1e-06 Hz from 1000000000000.0 s "
+                                                      "is at 1000199000000.0 s, beyond ±1e+12 s"),
                             (Sensor("s", 1e9, 1e12), "below 1e-09 s (the clock cannot tell them apart)")]:
         data = mkp_bytes(Header(10, 20, 2.0, 1000, (sensor,)), pk.packets)
         with pytest.raises(MocapFormatError, match=r"^mem: header: sensor 's': .*" + _re(message)):

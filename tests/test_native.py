@@ -167,7 +167,8 @@ def _float32_report(sigs: dict[str, Signal]) -> dict:
             assert k > 0  # the first point is always the first sample
             a = int(c.indices[k - 1])
             av = c.values[k - 1] if m in ("cplr", "swing") else X[a]
-            i = int(min(c.indices[k] if k < len(c.indices) else len(s), r.indices[k] if k < len(r.indices) else len(s))) + 1
+            i = int(min(c.indices[k] if k < len(c.indices) else len(s),
+                        r.indices[k] if k < len(r.indices) else len(s))) + 1
             if i >= len(s):  # the divergence is the end of the stream (cannot happen: flush is exact)
                 diffs[m].append((name, th_user, math.inf))
                 continue
@@ -327,7 +328,8 @@ def test_readme_c_example_compiles_and_runs(tmp_path):
                                                 "    float q[4] = {1.0f, i > 50 ? 0.01f * (i - 50) : 0, 0, 0};")
     prog = ("#include <stdio.h>\n#include \"mkpla.h\"\n"
             "static int sent;\n"
-            "static void radio_send(uint32_t i, uint32_t t, const float *v) { (void)t; (void)v; printf(\"%u\\n\", i); sent++; }\n"
+            "static void radio_send(uint32_t i, uint32_t t, const float *v) "
+            "{ (void)t; (void)v; printf(\"%u\\n\", i); sent++; }\n"
             "int main(void) {\n" + body + "return sent > 1 ? 0 : 1;\n}\n")
     (tmp_path / "ex.c").write_text(prog)
     exe = tmp_path / "ex"

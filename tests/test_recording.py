@@ -41,7 +41,8 @@ def test_bvh_channels_follow_the_file(tests_data):
     assert [c["name"] for c in r["channels"]] == expected
     frames = int(re.search(r"Frames:\s*(\d+)", text).group(1))
     ft = float(re.search(r"Frame Time:\s*(\S+)", text).group(1))
-    assert r["frames"] == frames and r["rate_hz"] == pytest.approx(1 / ft) and r["duration_s"] == pytest.approx(frames * ft)
+    assert (r["frames"] == frames and r["rate_hz"] == pytest.approx(1 / ft)
+            and r["duration_s"] == pytest.approx(frames * ft))
     pos = [c for c in r["channels"] if c["name"].endswith("position")]
     rot = [c for c in r["channels"] if c["name"].endswith("rotation")]
     assert len(pos) + len(rot) == len(expected)
@@ -113,7 +114,8 @@ def test_c3d_subjects_parameter(tmp_path):
     r = describe(load(tmp_path / "trial.c3d"), tmp_path / "trial.c3d")
     _check_shape(r)
     assert r["subject"] == "S07, Ball"
-    assert r["channels"][0] == {"name": "LASI_x", "component": "x", "type": "POS", "tracked_point": "LASI", "units": "m"}
+    assert r["channels"][0] == {"name": "LASI_x", "component": "x", "type": "POS", "tracked_point": "LASI",
+                                "units": "m"}
     assert (r["frames"], r["rate_hz"], r["format"]) == (5, 100.0, "c3d")
     # without the group: no subject
     c2 = ezc3d.c3d()

@@ -90,7 +90,8 @@ def ok_csv(tmp_path_factory) -> Path:
     p = tmp_path_factory.mktemp("csv") / "ok.csv"
     t = np.arange(60) * 0.01
     y = np.where(t < 0.3, t, 0.6 - t) + 0.001 * np.sin(37 * t)
-    p.write_text("time,a,b\n" + "".join(f"{a!r},{b!r},{c!r}\n" for a, b, c in zip(t.tolist(), y.tolist(), (2 * y).tolist(), strict=True)))
+    p.write_text("time,a,b\n" + "".join(f"{a!r},{b!r},{c!r}\n"
+                                        for a, b, c in zip(t.tolist(), y.tolist(), (2 * y).tolist(), strict=True)))
     return p
 
 
@@ -134,7 +135,8 @@ BAD_OPTIONS = [
     (["stream", "-t", "1", "--rate", "0"], "--rate"),
     # sweep
     *[(["sweep", PELVIS, "--out", "{tmp}/sw", "--thresholds", v], "--thresholds") for v in ("1", "0", "-5", HUGE_INT)],
-    *[(["sweep", PELVIS, "--out", "{tmp}/sw", "--max-segment-length", v], "--max-segment-length") for v in ("0", HUGE_INT)],
+    *[(["sweep", PELVIS, "--out", "{tmp}/sw", "--max-segment-length", v], "--max-segment-length")
+      for v in ("0", HUGE_INT)],
     (["sweep", PELVIS, "--out", "{tmp}/sw", "--rate", NAN], "--rate"),
     *[(["sweep", BVH, "--out", "{tmp}/sw", "--unit-cm", f"walk-meredith-60={v}"], "--unit-cm")
       for v in ("0", "-1", NAN, INF, "abc")],
@@ -288,7 +290,8 @@ def test_json_helper_refuses_non_finite_naming_the_field():
 
 IMU_FILES = sorted(p for p in (DATA / "imu").rglob("*") if p.is_file()) + sorted((DATA / "formats").iterdir())
 INFO_FILES = [[p] for p in IMU_FILES] + [
-    [BVH], [DATA / "bvh" / "perception-neuron-freya-12.bvh"], [AMC, "--asf", ASF], [DATA / "cmu" / "86_01_first60.amc", "--asf", ASF],
+    [BVH], [DATA / "bvh" / "perception-neuron-freya-12.bvh"], [AMC, "--asf", ASF],
+    [DATA / "cmu" / "86_01_first60.amc", "--asf", ASF],
     [DATA / "mvnx" / "86_01_xsens_60hz.mvnx"], [TSV], [DATA / "markers" / "vicon-nexus-walking2-excerpt.csv"],
     *[[p] for p in sorted((DATA / "opensim").iterdir())], [DATA / "xio" / "pelvis"],
 ]
@@ -396,7 +399,8 @@ def test_filter_bad_csv_is_one_line(tmp_path, text, words, extra):
 
 def test_filter_latin1_header_is_read(tmp_path):
     p = tmp_path / "in.csv"
-    p.write_bytes("time,h\xf6he\n".encode("latin-1") + "".join(f"{i * 0.01!r},{(i % 7) * 0.1!r}\n" for i in range(40)).encode())
+    p.write_bytes("time,h\xf6he\n".encode("latin-1")
+                  + "".join(f"{i * 0.01!r},{(i % 7) * 0.1!r}\n" for i in range(40)).encode())
     r = cli_run("filter", p, "--auto", "--json")
     assert r.code == 0, r.err
     assert strict_json(r.out)[0]["name"] == "h\u00f6he"
@@ -516,7 +520,8 @@ def test_streaming_segment_length_is_bounded_by_default(method):
     # an explicit length still wins, in both
     enc = Encoder(method, 1e9 if method == "sw" else 90.0, max_segment_length=7)
     got = [p.index for k in range(50) for p in enc.push(times[k], q[k])] + [p.index for p in enc.flush()]
-    assert got == compress(Signal(times[:50], q[:50], "quaternion"), method, 1e9 if method == "sw" else 90.0, 7).indices.tolist()
+    assert got == compress(Signal(times[:50], q[:50], "quaternion"), method, 1e9 if method == "sw" else 90.0,
+                           7).indices.tolist()
     assert np.diff(got).max() == 7
 
 
@@ -540,7 +545,8 @@ def test_stream_never_writes_a_non_finite_point(monkeypatch):
     from mocapkit.pla import base
 
     real_flush = base.Encoder.flush
-    monkeypatch.setattr(base.Encoder, "flush", lambda self: real_flush(self) + [base.Point(99, 9.0, (math.nan, 0.0, 0.0, 1.0))])
+    monkeypatch.setattr(base.Encoder, "flush",
+                        lambda self: real_flush(self) + [base.Point(99, 9.0, (math.nan, 0.0, 0.0, 1.0))])
     r = cli_run("stream", "-t", "0.1", stdin="time,w,x,y,z\n0,1,0,0,0\n1,1,0,0,0\n")
     assert_one_line_error(r, "<stdin>", "not finite")
     assert "nan" not in r.out

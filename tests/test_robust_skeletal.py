@@ -173,7 +173,8 @@ def test_bvh_frames_claim_checked_quickly(tmp_path):
 
 
 def test_bvh_channels_count_strict(tmp_path):
-    text = WALK_TEXT.replace("CHANNELS 3 Xrotation Yrotation Zrotation", "CHANNELS 0_3 Xrotation Yrotation Zrotation", 1)
+    text = WALK_TEXT.replace("CHANNELS 3 Xrotation Yrotation Zrotation",
+                             "CHANNELS 0_3 Xrotation Yrotation Zrotation", 1)
     err = _bvh_err(tmp_path, text)
     assert "CHANNELS count '0_3' of joint 'Spine'" in err.problem and err.line == 9
 
@@ -675,7 +676,8 @@ def test_gltf_json_nan_literal_and_deep_node_chain(tmp_path, clip):
             "nodes": [{"name": f"n{i}", "translation": [0, 0.1, 0], **({"children": [i + 1]} if i + 1 < n else {})}
                       for i in range(n)],
             "buffers": [{"byteLength": len(blob2)}],
-            "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 8}, {"buffer": 0, "byteOffset": 8, "byteLength": 32}],
+            "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 8},
+                            {"buffer": 0, "byteOffset": 8, "byteLength": 32}],
             "accessors": [{"bufferView": 0, "componentType": 5126, "count": 2, "type": "SCALAR"},
                           {"bufferView": 1, "componentType": 5126, "count": 2, "type": "VEC4"}],
             "animations": [{"samplers": [{"input": 0, "output": 1}],

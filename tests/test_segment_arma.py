@@ -96,13 +96,15 @@ def test_joint_maps_cmu_pn_override_and_errors():
            "upperback", "thorax", "lowerneck", "upperneck", "head", "lclavicle", "lhumerus", "lradius", "lwrist",
            "rclavicle", "rhumerus", "rradius", "rwrist")
     m = resolve_joint_map(cmu)
-    assert (m["root"], m["spine"], m["r_hip"], m["r_knee"], m["r_ankle"]) == ("root", "lowerneck", "rfemur", "rtibia", "rfoot")
+    assert (m["root"], m["spine"], m["r_hip"], m["r_knee"], m["r_ankle"]) == (
+        "root", "lowerneck", "rfemur", "rtibia", "rfoot")
     assert (m["l_shoulder"], m["l_elbow"], m["l_wrist"]) == ("lhumerus", "lradius", "lwrist")
     pn = ("Hips", "RightUpLeg", "RightLeg", "RightFoot", "LeftUpLeg", "LeftLeg", "LeftFoot", "Spine", "Spine3",
           "Neck", "Head", "RightShoulder", "RightArm", "RightForeArm", "RightHand", "LeftShoulder", "LeftArm",
           "LeftForeArm", "LeftHand")
     m = resolve_joint_map(pn)
-    assert (m["spine"], m["r_shoulder"], m["r_elbow"], m["r_wrist"]) == ("Neck", "RightArm", "RightForeArm", "RightHand")
+    assert (m["spine"], m["r_shoulder"], m["r_elbow"], m["r_wrist"]) == (
+        "Neck", "RightArm", "RightForeArm", "RightHand")
     assert resolve_joint_map(pn, {"spine": "Spine3"})["spine"] == "Spine3"
     with pytest.raises(InvalidParameterError, match="no joint 'Chest'"):
         resolve_joint_map(pn, {"spine": "Chest"})
@@ -176,7 +178,8 @@ def test_arma_hannan_rissanen_equals_naive_lstsq():
         b1 = np.linalg.lstsq(np.array(rows), x[L:], rcond=None)[0]
         eps = np.zeros(100)
         eps[L:] = x[L:] - np.array(rows) @ b1
-        rows2 = [[1.0] + [x[t - i] for i in range(1, p + 1)] + [eps[t - j] for j in range(1, q + 1)] for t in range(L + q, 100)]
+        rows2 = [[1.0] + [x[t - i] for i in range(1, p + 1)] + [eps[t - j] for j in range(1, q + 1)]
+                 for t in range(L + q, 100)]
         b2 = np.linalg.lstsq(np.array(rows2), x[L + q:], rcond=None)[0]
         np.testing.assert_allclose(fit.coef[0], b2, atol=1e-9)
         np.testing.assert_allclose(fit.long_coef[0], b1, atol=1e-9)
@@ -186,7 +189,8 @@ def test_arma_hannan_rissanen_equals_naive_lstsq():
         pred = predict_one_step(fit, 0, y, hist)
         full = np.concatenate([hist, y])
         n0 = hist.size
-        e_new = np.array([full[t] - b1[0] - sum(b1[i] * full[t - i] for i in range(1, L + 1)) for t in range(n0 - q, n0 + 60)])
+        e_new = np.array([full[t] - b1[0] - sum(b1[i] * full[t - i] for i in range(1, L + 1))
+                          for t in range(n0 - q, n0 + 60)])
         ref = np.array([b2[0] + sum(b2[i] * full[t - i] for i in range(1, p + 1))
                         + sum(b2[p + j] * e_new[t - n0 + q - j] for j in range(1, q + 1)) for t in range(n0, n0 + 60)])
         np.testing.assert_allclose(pred, ref, atol=1e-9)
@@ -241,7 +245,8 @@ def test_r2_and_sd_follow_the_equations():
             A = np.array([[1.0] + [w[t - i] for i in range(1, L + 1)] for t in range(L, w.size)])
             eps[L:] = w[L:] - A @ np.linalg.lstsq(A, w[L:], rcond=None)[0]
         s = L + q if q else p
-        A = np.array([[1.0] + [w[t - i] for i in range(1, p + 1)] + [eps[t - j] for j in range(1, q + 1)] for t in range(s, w.size)])
+        A = np.array([[1.0] + [w[t - i] for i in range(1, p + 1)] + [eps[t - j] for j in range(1, q + 1)]
+                      for t in range(s, w.size)])
         r = w[s:] - A @ np.linalg.lstsq(A, w[s:], rcond=None)[0]
         return w[s:], r
     r2 = []
@@ -306,7 +311,8 @@ def test_ensemble_rules():
 def test_multilimb_synthetic_ensemble():
     # four limbs change at the same time (±3 samples); a fifth changes alone at 850: that cut of a
     # single limb is dropped by the ensemble
-    X = np.stack([_changing(s, n1=550 + d) for s, d in zip(range(4), (0, 2, -3, 1), strict=True)] + [_changing(9, n1=850)], axis=1)
+    X = np.stack([_changing(s, n1=550 + d) for s, d in zip(range(4), (0, 2, -3, 1), strict=True)]
+                 + [_changing(9, n1=850)], axis=1)
     seg = ARMASegmenter(**SD_READING, downsample=1)
     cuts = seg.fit_predict(X)
     assert any(abs(int(c) - 850) <= 10 for c in seg.limb_cuts_[4])
@@ -315,7 +321,8 @@ def test_multilimb_synthetic_ensemble():
 
 def test_min_limbs_counts_moving_channels_only():
     X = np.stack([_changing(2), np.full(1100, 45.0)], axis=1)
-    assert ARMASegmenter(**SD_READING, downsample=1).fit_predict(X).tolist() == ARMASegmenter(**SD_READING, downsample=1).fit_predict(X[:, 0]).tolist()
+    assert (ARMASegmenter(**SD_READING, downsample=1).fit_predict(X).tolist()
+            == ARMASegmenter(**SD_READING, downsample=1).fit_predict(X[:, 0]).tolist())
 
 
 def test_differenced_windows_join_without_gap():

@@ -40,7 +40,8 @@ def test_cost_curve_equals_brute_force_over_every_segmentation(cost):
         assert curve.costs[k] == pytest.approx(best, rel=1e-10, abs=1e-10)
         got = curve.cuts(k)
         b = (0, *got.tolist(), n)
-        assert sum(_seg_cost(z, s, e, cost, gamma) for s, e in zip(b[:-1], b[1:], strict=True)) == pytest.approx(best, abs=1e-10)
+        assert sum(_seg_cost(z, s, e, cost, gamma) for s, e in zip(b[:-1], b[1:], strict=True)) == pytest.approx(
+            best, abs=1e-10)
 
 
 def test_cost_curve_cuts_equal_ruptures_kernelcpd():

@@ -216,8 +216,8 @@ def test_labels_checked_before_segmenting(excerpt, tmp_path, monkeypatch):
     bad.write_text("86 01\nwalk 10 30 30\nrest 150 150 150\n")  # ends at 150 but the take has 200 frames
     res = CliRunner().invoke(app, ["segment", str(amc), "--asf", str(asf), "--rate", "15", "--labels", str(bad)])
     assert isinstance(res.exception, MocapFormatError) and "bad.labels.txt:3" in str(res.exception)
-    res = CliRunner().invoke(app, ["segment-bench", f"{amc}={labels}", f"{amc}={bad}", "--asf", str(asf), "--rate", "15",
-                                   "--methods", "arma"])
+    res = CliRunner().invoke(app, ["segment-bench", f"{amc}={labels}", f"{amc}={bad}", "--asf", str(asf),
+                                   "--rate", "15", "--methods", "arma"])
     assert isinstance(res.exception, MocapFormatError) and "bad.labels.txt:3" in str(res.exception)
 
 

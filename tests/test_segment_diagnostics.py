@@ -263,7 +263,8 @@ def test_study_aic_choice_is_the_least_aic():
         fits = {o: fit_arma(seg, *o) for o in [(1, 0), (1, 1), (2, 0), (2, 1)]}
         common = max(f.start for f in fits.values())
         m = seg.size - common
-        aic = {o: m * np.log(np.sum(f.resid[0][common - f.start:] ** 2) / m) + 2 * (sum(o) + 1) for o, f in fits.items()}
+        aic = {o: m * np.log(np.sum(f.resid[0][common - f.start:] ** 2) / m) + 2 * (sum(o) + 1)
+               for o, f in fits.items()}
         assert w["order"] == min(aic, key=aic.get)
 
 

@@ -137,7 +137,8 @@ def test_identical_and_time_warped_copies():
     assert sim.dtw(a, a + rng.normal(scale=0.1, size=a.shape)).distance > 0.01
 
 
-@pytest.mark.parametrize("m,n,w", [(9, 9, 0), (9, 9, 2), (20, 31, 1), (31, 20, 1), (12, 40, 2), (40, 12, 5), (6, 50, 5)])
+@pytest.mark.parametrize("m,n,w", [(9, 9, 0), (9, 9, 2), (20, 31, 1), (31, 20, 1), (12, 40, 2), (40, 12, 5),
+                                   (6, 50, 5)])
 def test_band_equals_naive_band(m, n, w):
     rng = np.random.default_rng(m + n + w)
     a, b = rng.normal(size=m), rng.normal(size=n)

@@ -370,6 +370,7 @@ def test_joint_with_fewer_rotation_channels_refuses_a_rotation_about_a_missing_a
     src.write_text(_PARTIAL % "1 Zrotation" + "0 0 0 0 0 0 10\n0 0 0 0 0 0 20\n0 0 0 0 0 0 30\n")
     m = read_bvh(src)
     m.rotations[1, 1] = Rotation.from_euler("ZX", [20, 3], degrees=True).as_quat(scalar_first=True)
-    with pytest.raises(InvalidSignalError, match=r"'Knee' has the rotation channels Z only, but at frame 1 it turns 3 degrees about X"):
+    with pytest.raises(InvalidSignalError,
+                       match=r"'Knee' has the rotation channels Z only, but at frame 1 it turns 3 degrees about X"):
         write_bvh(tmp_path / "out.bvh", m, use_channel_values=False)
     assert not (tmp_path / "out.bvh").exists()

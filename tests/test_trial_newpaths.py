@@ -126,8 +126,8 @@ def _with_point_changed(src: Path, dst: Path, row: int, col: int, delta: float) 
     dst.write_text("\n".join(lines) + "\n")
 
 
-@given(row=st.integers(1, 25), col=st.integers(1, 4), delta=st.floats(-0.5, 0.5), bound=st.sampled_from([1.0, 2.0, 5.0]),
-       ticks=st.booleans())
+@given(row=st.integers(1, 25), col=st.integers(1, 4), delta=st.floats(-0.5, 0.5),
+       bound=st.sampled_from([1.0, 2.0, 5.0]), ticks=st.booleans())
 @FAST
 def test_verify_on_a_mutated_points_csv_equals_an_independent_decode(trial, made, tmp_path_factory, row, col, delta,
                                                                       bound, ticks):

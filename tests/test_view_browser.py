@@ -43,8 +43,8 @@ AMC = DATA / "cmu" / "86_01_15hz_first1600.amc"  # the subject walks about 1.9 b
 ASF = DATA / "cmu" / "86.asf"
 #: WebGL on the CPU (SwiftShader through ANGLE): no GPU is needed, and unlike --disable-gpu the canvas is not
 #: read back with a driver performance warning on the console
-LAUNCH_ARGS = ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-quic", "--no-first-run",
-               "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+LAUNCH_ARGS = ["--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--disable-quic",
+               "--no-first-run", "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 VIEWPORT = {"width": 1280, "height": 800}
 #: a sensor name too long for its error plot's title
 LONG_SENSOR = "s3-right-upper-arm-lateral-segment-sensor"
@@ -170,7 +170,8 @@ def imu_grid_server(request, tmp_path_factory):
     folder = tmp_path_factory.mktemp("view-imu-grid")
     sensors = folder / "body"
     for i in range(7):
-        shutil.copytree(DATA / "xio" / ("pelvis" if i % 2 else "left-foot"), sensors / (LONG_SENSOR if i == 3 else f"s{i}"))
+        shutil.copytree(DATA / "xio" / ("pelvis" if i % 2 else "left-foot"),
+                        sensors / (LONG_SENSOR if i == 3 else f"s{i}"))
     mkp = folder / "body.mkp"
     _run_cli("compress", str(sensors), "--max-angle", "2", "-o", str(mkp))
     return _serve(request, str(sensors), str(mkp))
@@ -589,7 +590,8 @@ def test_marker_page_draws_the_markers_where_they_project(open_page, marker_serv
         assert _vertical_order(page, "p0", markers.positions[frame, :, 2]) > 0.8
         if first is None:
             first = pts
-    moved = [np.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(first, pts, strict=True) if a is not None and b is not None]
+    moved = [np.hypot(a[0] - b[0], a[1] - b[1]) for a, b in zip(first, pts, strict=True)
+             if a is not None and b is not None]
     assert max(moved) > 3
 
 

@@ -36,7 +36,8 @@ def test_column_options(tmp_path):
     p = tmp_path / "odd.csv"
     rows = np.genfromtxt(PELVIS, delimiter=",", skip_header=1)[:20]
     t_ms = (rows[:, 0] - rows[0, 0]) / 1000.0              # µs -> ms, under a name that says nothing
-    lines = ["stamp,qa,qb,qc,qd"] + [",".join(repr(float(v)) for v in (t, *q)) for t, q in zip(t_ms, rows[:, 1:5], strict=True)]
+    lines = ["stamp,qa,qb,qc,qd"] + [",".join(repr(float(v)) for v in (t, *q))
+                                     for t, q in zip(t_ms, rows[:, 1:5], strict=True)]
     p.write_text("\n".join(lines) + "\n")
     with pytest.raises(MocapFormatError):
         build_scene([p])

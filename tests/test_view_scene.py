@@ -137,7 +137,8 @@ def test_markers_with_the_filter_pieces_equal_the_filtered_csv(tmp_path):
 
 def test_filter_json_of_another_file_is_refused(tmp_path):
     bad = tmp_path / "fit.json"
-    bad.write_text(json.dumps([{"name": "NOPE", "components": ["NOPE_x"], "pieces": [{"t0": 0, "t1": 1, "coeffs": [1]}]}]))
+    bad.write_text(json.dumps([{"name": "NOPE", "components": ["NOPE_x"],
+                                "pieces": [{"t0": 0, "t1": 1, "coeffs": [1]}]}]))
     with pytest.raises(MocapFormatError, match="NOPE_x"):
         build_scene([TSV], filter_json=bad)
     bad.write_text("[{\"name\": 1,\n oops")
