@@ -177,11 +177,12 @@ def digest(path: str, fmt: str, options: dict | None = None) -> dict:
                 from mocapkit.io.imu.signals import read_imu_csv
 
                 obj = {"points": read_imu_csv(path)}
-            elif fmt == "mkpoints":  # a tick-column points CSV, as decompress and verify read it
-                from mocapkit.io.text.timetable import read_time_table
+            elif fmt == "mkpoints":  # a tick-column points CSV, as verify (its one reader) reads it
+                from mocapkit.jobs.verify import _read_points_csv
 
-                tab = read_time_table(path, "points CSV")
-                obj = {"table": {"times": tab.times, "values": tab.values}}
+                pts = _read_points_csv(Path(path), "points")
+                obj = {"table": {"times": pts.times, "values": np.column_stack(
+                    [pts.values, pts.ticks, np.asarray(pts.gap_before, dtype=float)])}}
             elif fmt == "mkp":
                 from mocapkit.jobs.readers import read_mkp
 
